@@ -1,0 +1,93 @@
+"""Finding a coloured sphere in a camera image, and the centre of its perspective image.
+
+The image of a sphere is an ellipse whose major axis lies on the ray from the principal point;
+its ends are the projections of the tangent directions φ - α and φ + α, where φ is the off-axis
+angle of the sphere's centre. The blob's centroid is the midpoint of those ends, displaced outward
+from tan φ (several pixels at 75° off axis), so the centre is recovered as tan of their angular
+mean: φ = (atan ρ1 + atan ρ2) / 2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+#: Fewest pixels a blob may have to count as a sighting.
+MIN_BLOB_PIXELS = 4
+#: A blob covering less of its convex hull than this is taken as partly occluded: not visible.
+MIN_FILL_RATIO = 0.7
+
+
+@dataclass(frozen=True)
+class MarkerColour:
+    """An HSV window (OpenCV scale: H 0-179, S and V 0-255) that selects one marker's pixels."""
+
+    name: str
+    is_target: bool
+    hue_ranges: tuple[tuple[int, int], ...]
+    min_saturation: int = 120
+    min_value: int = 40
+
+    def mask(self, rgb: np.ndarray) -> np.ndarray:
+        hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
+        mask = np.zeros(rgb.shape[:2], dtype=np.uint8)
+        for lo, hi in self.hue_ranges:
+            mask |= cv2.inRange(hsv, (lo, self.min_saturation, self.min_value), (hi, 255, 255))
+        return mask
+
+
+RED_TARGET = MarkerColour("target", True, ((0, 8), (172, 179)))
+GREEN_EFFECTOR = MarkerColour("effector", False, ((45, 75),))
+
+
+def detect_sphere(
+    rgb: np.ndarray, colour: MarkerColour, center: np.ndarray, focal: np.ndarray
+) -> np.ndarray | None:
+    """Pixel (u, v) of the projected centre of the sphere of ``colour``, or None if not visible.
+
+    Not visible: no blob, a blob touching the image border (cut), or one that fills less than
+    MIN_FILL_RATIO of its convex hull (partly occluded). A thin link crossing into the blob is
+    bridged by the convex hull.
+
+    Args:
+        rgb: (H, W, 3) uint8 image.
+        center: (2,) principal point in pixels; focal: (2,) pixels per normalised unit.
+    """
+    mask = colour.mask(rgb)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if count < 2:
+        return None
+    best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    x, y, w, h, area = stats[best]
+    height, width = mask.shape
+    if area < MIN_BLOB_PIXELS or x == 0 or y == 0 or x + w >= width or y + h >= height:
+        return None
+    blob = (labels[y : y + h, x : x + w] == best).astype(np.uint8)
+    contours, _ = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    hull = cv2.convexHull(np.concatenate(contours))
+    filled = blob.copy()
+    cv2.fillConvexPoly(filled, hull, 1)
+    if area < MIN_FILL_RATIO * filled.sum():
+        return None
+    rows, cols = np.nonzero(filled)
+    uv = np.stack([cols + x, rows + y], axis=-1).astype(float)  # (n, 2) pixel centres
+    centroid = uv.mean(axis=0)
+    return _perspective_centre(centroid, uv, center, focal)
+
+
+def _perspective_centre(
+    centroid: np.ndarray, uv: np.ndarray, center: np.ndarray, focal: np.ndarray
+) -> np.ndarray:
+    offset = (centroid - center) / focal  # normalised, y downwards (sign does not matter here)
+    rho = float(np.hypot(*offset))
+    if rho < 1e-9:
+        return centroid
+    direction = offset / rho
+    radial = ((uv - centroid) / focal) @ direction  # (n,) normalised radial spread
+    # Uniform ellipse: variance along the major axis = a²/4; a pixel adds 1/12 px² of its own.
+    pixel_var = (direction**2 / focal**2).sum() / 12.0
+    half_axis = 2.0 * np.sqrt(max(radial.var() - pixel_var, 0.0))
+    phi = 0.5 * (np.arctan(rho - half_axis) + np.arctan(rho + half_axis))
+    return center + direction * np.tan(phi) * focal

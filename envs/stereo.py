@@ -1,0 +1,153 @@
+"""Two fixed pinhole cameras of a scene: exact projection, triangulation and rendered sensing.
+
+Pixel coordinates are array-index coordinates: the centre of pixel (row i, column j) is
+(u, v) = (j, i), u to the right and v downwards. Normalised image coordinates have focal length 1,
+x to the right and y up. A 4-vector of pixels is (u_left, v_left, u_right, v_right).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from envs.markers import MarkerColour, detect_sphere
+from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET, CameraRenderer
+
+
+@dataclass(frozen=True)
+class PinholeCamera:
+    """World pose and intrinsics of one camera, in pixels of a (height, width) image."""
+
+    position: np.ndarray  # (3,) world
+    rotation: np.ndarray  # (3, 3) columns = camera x (right), y (up), z (backwards) in world
+    focal: np.ndarray  # (2,) pixels per unit of normalised coordinate, (f_u, f_v)
+    center: np.ndarray  # (2,) pixel (u, v) of the optical axis
+
+    @classmethod
+    def from_model(cls, model, data, name: str, height: int, width: int) -> PinholeCamera:
+        """Read a MuJoCo camera (``fovy`` or ``sensorsize``/``focal``/``principal``)."""
+        cid = model.camera(name).id
+        sensor = model.cam_sensorsize[cid]
+        if sensor[1] > 0:  # physical sensor: intrinsic = (focal x, focal y, principal x, y)
+            fx, fy, px, py = model.cam_intrinsic[cid]
+            focal = np.array([fx * width / sensor[0], fy * height / sensor[1]])
+            # MuJoCo shifts the image by -principal (x right, y down), measured in sensor units.
+            center = np.array(
+                [width / 2 - 0.5 - px * width / sensor[0], height / 2 - 0.5 - py * height / sensor[1]]
+            )
+        else:
+            f = 0.5 * height / np.tan(np.deg2rad(model.cam_fovy[cid]) / 2)
+            focal = np.array([f, f])
+            center = np.array([width / 2 - 0.5, height / 2 - 0.5])
+        return cls(data.cam_xpos[cid].copy(), data.cam_xmat[cid].reshape(3, 3).copy(), focal, center)
+
+    def normalized(self, points: np.ndarray) -> np.ndarray:
+        """World points (N, 3) -> normalised image coordinates (N, 2)."""
+        pc = (np.asarray(points, dtype=float) - self.position) @ self.rotation  # (N, 3) camera
+        return pc[:, :2] / -pc[:, 2:3]
+
+    def to_pixels(self, xy: np.ndarray) -> np.ndarray:
+        """Normalised (N, 2) -> pixels (N, 2)."""
+        return np.stack(
+            [self.center[0] + self.focal[0] * xy[:, 0], self.center[1] - self.focal[1] * xy[:, 1]],
+            axis=-1,
+        )
+
+    def to_normalized(self, uv: np.ndarray) -> np.ndarray:
+        """Pixels (N, 2) -> normalised (N, 2)."""
+        return np.stack(
+            [(uv[:, 0] - self.center[0]) / self.focal[0], (self.center[1] - uv[:, 1]) / self.focal[1]],
+            axis=-1,
+        )
+
+    def depth(self, points: np.ndarray) -> np.ndarray:
+        """Distance in front of the camera along its axis, (N,)."""
+        return -(np.asarray(points, dtype=float) - self.position) @ self.rotation[:, 2]
+
+
+class StereoRig:
+    """The scene's two cameras (default ``cam_left``, ``cam_right``) at one image size.
+
+    Args:
+        model, data: a MuJoCo scene; camera poses are read from ``data`` (fixed cameras).
+        height, width: sensing image size in pixels.
+    """
+
+    def __init__(
+        self,
+        model,
+        data,
+        height: int = 240,
+        width: int = 320,
+        cameras: Sequence[str] = ("cam_left", "cam_right"),
+    ) -> None:
+        if len(cameras) != 2:
+            raise ValueError(f"a stereo rig needs two camera names, got {list(cameras)}")
+        self.model, self.height, self.width = model, height, width
+        self.camera_names = tuple(cameras)
+        self.cameras = tuple(PinholeCamera.from_model(model, data, c, height, width) for c in cameras)
+        self._renderer = CameraRenderer(model, height, width)
+
+    def project(self, points: np.ndarray, normalized: bool = False) -> np.ndarray:
+        """World points (N, 3) -> (N, 4) pixels (or normalised coordinates) in both cameras."""
+        p = np.atleast_2d(np.asarray(points, dtype=float))
+        xy = [c.normalized(p) for c in self.cameras]
+        if not normalized:
+            xy = [c.to_pixels(n) for c, n in zip(self.cameras, xy)]
+        return np.concatenate(xy, axis=-1)
+
+    def triangulate(self, pixels: np.ndarray, normalized: bool = False) -> np.ndarray:
+        """(N, 4) pixels (or normalised coordinates) -> (N, 3) world points, linear least squares.
+
+        Each camera gives two planes through its centre, (r_x + x r_z)·(p - c) = 0 and
+        (r_y + y r_z)·(p - c) = 0; the four are solved for p in the least-squares sense.
+        """
+        q = np.atleast_2d(np.asarray(pixels, dtype=float))
+        rows, rhs = [], []
+        for k, cam in enumerate(self.cameras):
+            xy = q[:, 2 * k : 2 * k + 2]
+            if not normalized:
+                xy = cam.to_normalized(xy)
+            r = cam.rotation
+            for axis in (0, 1):
+                plane = r[:, axis][None, :] + xy[:, axis : axis + 1] * r[:, 2][None, :]  # (N, 3)
+                rows.append(plane)
+                rhs.append(plane @ cam.position)
+        M = np.stack(rows, axis=1)  # (N, 4, 3)
+        b = np.stack(rhs, axis=1)  # (N, 4)
+        MtM = np.einsum("nki,nkj->nij", M, M)
+        Mtb = np.einsum("nki,nk->ni", M, b)
+        return np.linalg.solve(MtM, Mtb[..., None])[..., 0]
+
+    def pixel_size(self, points: np.ndarray) -> np.ndarray:
+        """Metres per pixel at each point, (N,), the worse of the two cameras (for error units)."""
+        p = np.atleast_2d(np.asarray(points, dtype=float))
+        return np.max([c.depth(p) / c.focal.min() for c in self.cameras], axis=0)
+
+    def sense(self, data, marker: MarkerColour) -> tuple[np.ndarray, np.ndarray]:
+        """Render both cameras and find the image centre of one coloured sphere.
+
+        Only the geom groups that a real camera would see for that marker are drawn: the target
+        is sensed with the robot out of view, the effector marker with the robot (which may
+        occlude it) but without the target (which it reaches and would otherwise hide).
+
+        Returns:
+            pixels (4,) of the sphere centre's image (NaN where not visible), visible (2,) bool.
+        """
+        groups = (GROUP_SCENE, GROUP_TARGET) if marker.is_target else (
+            GROUP_SCENE, GROUP_ROBOT, GROUP_MARKER
+        )
+        pixels = np.full(4, np.nan)
+        visible = np.zeros(2, dtype=bool)
+        for k, (name, cam) in enumerate(zip(self.camera_names, self.cameras)):
+            image = self._renderer.render(data, name, groups)
+            found = detect_sphere(image, marker, cam.center, cam.focal)
+            if found is not None:
+                pixels[2 * k : 2 * k + 2] = found
+                visible[k] = True
+        return pixels, visible
+
+    def close(self) -> None:
+        self._renderer.close()

@@ -1,0 +1,74 @@
+"""Saving learned state: one ``.npz`` with named arrays, a JSON configuration and a format
+version, written atomically (temporary file in the same folder, then rename)."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+_KIND, _VERSION, _CONFIG = "__kind__", "__format_version__", "__config__"
+
+
+class CheckpointError(ValueError):
+    """A file that is missing, damaged, or holds something other than what was asked for."""
+
+
+def save_npz(path: str | os.PathLike, kind: str, version: int, config: dict[str, Any],
+             arrays: dict[str, np.ndarray]) -> Path:
+    """Write ``arrays`` and ``config`` to ``path`` atomically; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    payload = {
+        _KIND: np.array(kind),
+        _VERSION: np.array(version),
+        _CONFIG: np.array(json.dumps(config, sort_keys=True)),
+        **arrays,
+    }
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **payload)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def load_npz(path: str | os.PathLike, kind: str, version: int
+             ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Read a file written by :func:`save_npz` for ``kind``; returns (config, arrays).
+
+    Raises:
+        CheckpointError: the file is missing, truncated or not a numpy archive, holds another
+            kind of state, or was written by another format version.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"{path}: no such file; check the path or train a model first")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            contents = {k: z[k] for k in z.files}
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
+        raise CheckpointError(
+            f"{path}: damaged or truncated ({exc}); restore it from a copy or retrain"
+        ) from exc
+    if _KIND not in contents or _VERSION not in contents or _CONFIG not in contents:
+        raise CheckpointError(f"{path}: not a visuomotor checkpoint (no kind/version/config)")
+    found = str(contents.pop(_KIND))
+    if found != kind:
+        raise CheckpointError(f"{path}: holds a {found!r}, not a {kind!r}")
+    found_version = int(contents.pop(_VERSION))
+    if found_version != version:
+        raise CheckpointError(
+            f"{path}: format version {found_version}, this code reads version {version}"
+        )
+    return json.loads(str(contents.pop(_CONFIG))), contents

@@ -1,0 +1,53 @@
+"""Robot descriptions: MJCF files (``<robot>/<robot>.xml``, ``<robot>/scene.xml``) and the
+analytic kinematics of each robot in pure numpy.
+
+>>> from models import scene_path, available_models
+>>> available_models()
+('puma560', 'riacs')
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # mujoco is only needed to compile a model, not for the kinematics
+    import mujoco
+
+MODELS_DIR = Path(__file__).resolve().parent
+
+
+class UnknownModelError(ValueError):
+    """Raised for a robot name that has no model folder."""
+
+
+def available_models() -> tuple[str, ...]:
+    """Names of the robots that have a ``scene.xml``, sorted."""
+    return tuple(sorted(p.parent.name for p in MODELS_DIR.glob("*/scene.xml")))
+
+
+def model_dir(name: str) -> Path:
+    """Folder of robot ``name``; raises :class:`UnknownModelError` listing the valid names."""
+    folder = MODELS_DIR / name
+    if name not in available_models():
+        raise UnknownModelError(
+            f"no robot model named {name!r}; available models: {', '.join(available_models())}"
+        )
+    return folder
+
+
+def scene_path(name: str) -> Path:
+    """``models/<name>/scene.xml``: robot, floor, lights, cameras and target."""
+    return model_dir(name) / "scene.xml"
+
+
+def robot_path(name: str) -> Path:
+    """``models/<name>/<name>.xml``: the robot alone."""
+    return model_dir(name) / f"{name}.xml"
+
+
+def load_model(name: str, scene: bool = True) -> mujoco.MjModel:
+    """Compile the scene (or the robot alone) of robot ``name``."""
+    import mujoco
+
+    return mujoco.MjModel.from_xml_path(str(scene_path(name) if scene else robot_path(name)))

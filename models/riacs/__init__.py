@@ -1,0 +1,50 @@
+"""RIACS 3-DOF arm (Jorgensen 1990): report formulas and the reachable workspace."""
+
+import numpy as np
+
+from models.riacs.kinematics import (
+    ARM_REACH,
+    FOCAL_LENGTH,
+    HALF_SEPARATION,
+    HOME,
+    LINK1,
+    LINK2,
+    LOWER,
+    UPPER,
+    camera,
+    camerafd,
+    robot3df,
+    robot3dinv,
+)
+from models.workspace import ReachableWorkspace
+
+
+def _ik(points: np.ndarray) -> np.ndarray:
+    return np.stack(robot3dinv(LINK1, LINK2, *points.T), axis=-1)
+
+
+#: The set build3dpts reaches: every point whose robot3dinv lies in the joint ranges.
+#: Bounding box from the joint ranges: x, y ∈ [0, 1], z ∈ [-0.40, 0.75] m.
+WORKSPACE = ReachableWorkspace(
+    lower=np.array([0.0, 0.0, -0.40]),
+    upper=np.array([1.0, 1.0, 0.75]),
+    ik=_ik,
+    joint_lower=LOWER,
+    joint_upper=UPPER,
+)
+
+__all__ = [
+    "ARM_REACH",
+    "FOCAL_LENGTH",
+    "HALF_SEPARATION",
+    "HOME",
+    "LINK1",
+    "LINK2",
+    "LOWER",
+    "UPPER",
+    "WORKSPACE",
+    "camera",
+    "camerafd",
+    "robot3df",
+    "robot3dinv",
+]
