@@ -1,13 +1,30 @@
 """Gymnasium environments and stereo camera sensing.
 
 Importing this package chooses the off-screen GL back-end (before mujoco is imported) and
-registers the environments with Gymnasium.
+registers ``RiacsReach-v0``, ``PumaReach-v0`` and ``PumaTrack-v0`` with Gymnasium.
 """
 
 from envs.rendering import configure_gl_backend
 
 configure_gl_backend()
 
+import gymnasium as gym  # noqa: E402
+
+from envs.reach import MAX_EPISODE_STEPS, ReachEnv  # noqa: E402
 from envs.stereo import StereoRig  # noqa: E402
 
-__all__ = ["StereoRig"]
+gym.register(
+    id="RiacsReach-v0",
+    entry_point="envs.reach:ReachEnv",
+    kwargs={"robot": "riacs"},
+    max_episode_steps=MAX_EPISODE_STEPS,
+)
+gym.register(
+    id="PumaReach-v0",
+    entry_point="envs.reach:ReachEnv",
+    kwargs={"robot": "puma560"},
+    max_episode_steps=MAX_EPISODE_STEPS,
+)
+gym.register(id="PumaTrack-v0", entry_point="envs.track:PumaTrackEnv")
+
+__all__ = ["ReachEnv", "StereoRig"]

@@ -35,13 +35,18 @@ class PinholeCamera:
             focal = np.array([fx * width / sensor[0], fy * height / sensor[1]])
             # MuJoCo shifts the image by -principal (x right, y down), measured in sensor units.
             center = np.array(
-                [width / 2 - 0.5 - px * width / sensor[0], height / 2 - 0.5 - py * height / sensor[1]]
+                [
+                    width / 2 - 0.5 - px * width / sensor[0],
+                    height / 2 - 0.5 - py * height / sensor[1],
+                ]
             )
         else:
             f = 0.5 * height / np.tan(np.deg2rad(model.cam_fovy[cid]) / 2)
             focal = np.array([f, f])
             center = np.array([width / 2 - 0.5, height / 2 - 0.5])
-        return cls(data.cam_xpos[cid].copy(), data.cam_xmat[cid].reshape(3, 3).copy(), focal, center)
+        return cls(
+            data.cam_xpos[cid].copy(), data.cam_xmat[cid].reshape(3, 3).copy(), focal, center
+        )
 
     def normalized(self, points: np.ndarray) -> np.ndarray:
         """World points (N, 3) -> normalised image coordinates (N, 2)."""
@@ -58,7 +63,10 @@ class PinholeCamera:
     def to_normalized(self, uv: np.ndarray) -> np.ndarray:
         """Pixels (N, 2) -> normalised (N, 2)."""
         return np.stack(
-            [(uv[:, 0] - self.center[0]) / self.focal[0], (self.center[1] - uv[:, 1]) / self.focal[1]],
+            [
+                (uv[:, 0] - self.center[0]) / self.focal[0],
+                (self.center[1] - uv[:, 1]) / self.focal[1],
+            ],
             axis=-1,
         )
 
@@ -87,7 +95,9 @@ class StereoRig:
             raise ValueError(f"a stereo rig needs two camera names, got {list(cameras)}")
         self.model, self.height, self.width = model, height, width
         self.camera_names = tuple(cameras)
-        self.cameras = tuple(PinholeCamera.from_model(model, data, c, height, width) for c in cameras)
+        self.cameras = tuple(
+            PinholeCamera.from_model(model, data, c, height, width) for c in cameras
+        )
         self._renderer = CameraRenderer(model, height, width)
 
     def project(self, points: np.ndarray, normalized: bool = False) -> np.ndarray:
@@ -136,8 +146,10 @@ class StereoRig:
         Returns:
             pixels (4,) of the sphere centre's image (NaN where not visible), visible (2,) bool.
         """
-        groups = (GROUP_SCENE, GROUP_TARGET) if marker.is_target else (
-            GROUP_SCENE, GROUP_ROBOT, GROUP_MARKER
+        groups = (
+            (GROUP_SCENE, GROUP_TARGET)
+            if marker.is_target
+            else (GROUP_SCENE, GROUP_ROBOT, GROUP_MARKER)
         )
         pixels = np.full(4, np.nan)
         visible = np.zeros(2, dtype=bool)

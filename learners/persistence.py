@@ -19,8 +19,13 @@ class CheckpointError(ValueError):
     """A file that is missing, damaged, or holds something other than what was asked for."""
 
 
-def save_npz(path: str | os.PathLike, kind: str, version: int, config: dict[str, Any],
-             arrays: dict[str, np.ndarray]) -> Path:
+def save_npz(
+    path: str | os.PathLike,
+    kind: str,
+    version: int,
+    config: dict[str, Any],
+    arrays: dict[str, np.ndarray],
+) -> Path:
     """Write ``arrays`` and ``config`` to ``path`` atomically; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -43,8 +48,9 @@ def save_npz(path: str | os.PathLike, kind: str, version: int, config: dict[str,
     return path
 
 
-def load_npz(path: str | os.PathLike, kind: str, version: int
-             ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def load_npz(
+    path: str | os.PathLike, kind: str, version: int
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """Read a file written by :func:`save_npz` for ``kind``; returns (config, arrays).
 
     Raises:

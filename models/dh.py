@@ -54,7 +54,9 @@ def forward_frames(table: DHTable, theta: np.ndarray) -> np.ndarray:
     """
     theta = np.asarray(theta, dtype=float)
     if theta.shape[-1] != table.n:
-        raise ValueError(f"expected {table.n} joint angles in the last axis, got shape {theta.shape}")
+        raise ValueError(
+            f"expected {table.n} joint angles in the last axis, got shape {theta.shape}"
+        )
     frames = np.empty((*theta.shape[:-1], table.n + 1, 4, 4))
     frames[..., 0, :, :] = np.eye(4)
     for i in range(table.n):

@@ -1,0 +1,288 @@
+"""ReachEnv: move the arm so that its marker reaches a target that two cameras see."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+
+from envs.composite import CompositeView
+from envs.markers import GREEN_EFFECTOR, RED_TARGET
+from envs.robots import ROBOTS, RobotSpec
+from envs.stereo import StereoRig
+from models import load_model
+
+SENSING_MODES = ("render", "project")
+CONTROL_MODES = ("servo", "kinematic")
+SUCCESS_THRESHOLD = 0.005  # m
+IMAGE_HEIGHT, IMAGE_WIDTH = 240, 320  # sensing images, pixels
+SETTLE_SPEED = 1e-3  # rad/s: the servo move ends when every joint is slower than this ...
+MIN_SETTLE_TIME = 0.02  # s ... after at least this much simulated time,
+MAX_SETTLE_TIME = 2.0  # s ... or at this cap.
+MAX_EPISODE_STEPS = 4  # moves: one coarse and up to three fine
+
+
+class ReachEnv(gym.Env):
+    """Reach a target with a robot arm, seen only through two cameras.
+
+    The robot is a PUMA 560 (``PumaReach-v0``) or the RIACS 3-DOF arm (``RiacsReach-v0``). A red
+    target sphere is placed in the robot's workspace; a green marker sits at the arm's sensed point
+    (PUMA: the wrist centre when joints 1-3 are controlled, the tool point when all six are; RIACS:
+    the tool point). Two fixed cameras ``cam_left`` and ``cam_right`` see both. One step is one
+    *move*: the action is an absolute joint command, the arm goes there, and the cameras sense
+    where the marker ended up.
+
+    ## Action space
+    ``Box(joint_lower, joint_upper, (J,), float64)``: absolute command in radians for the
+    controlled joints (J = 3, or 6 for ``PumaReach-v0`` with ``joints=6``). A command outside a
+    joint's range is clipped into it and ``info["clipped"]`` is True. NaN or inf raises
+    ``ValueError`` naming the joint; a wrong shape raises ``ValueError`` with the expected shape.
+
+    ## Observation space
+    ``Dict`` in the Gymnasium-Robotics goal convention:
+
+    | key | shape | unit | meaning |
+    |---|---|---|---|
+    | ``observation`` | (J,) | rad | joint angles of the controlled joints |
+    | ``achieved_goal`` | (4,) | px | sensed marker centre (u_left, v_left, u_right, v_right) |
+    | ``desired_goal`` | (4,) | px | sensed target centre, same layout |
+
+    Pixels are array-index coordinates (u right, v down) of 320×240 images. The target is sensed
+    once per episode, at reset, with the robot out of view; the effector marker after every move,
+    with the robot (which may occlude it) but without the target (which it would hide). A marker
+    that is not seen by both cameras (occluded, cut by the image border) keeps its last valid
+    sensing in the observation and ``info["visible"]`` is False; before a marker has ever been
+    seen its entry is the image centre.
+
+    ## Reward
+    ``reward = -info["distance"]``: minus the ground-truth distance in metres between the target
+    centre and the sensed site (from MuJoCo, not from the cameras). ``info["reward_distance"]``
+    holds the same term. ``compute_reward(achieved_goal, desired_goal, info)`` gives minus the
+    distance between the triangulated goals, for goal-relabelling (HER) agents; it equals the
+    step reward with ``sensing="project"``.
+
+    ## Starting state
+    ``reset`` draws a target uniformly from the robot's workspace with ``self.np_random`` and moves
+    the mocap body there. The arm returns to the keyframe ``home`` unless
+    ``reset(options={"keep_arm": True})`` leaves it where the last move put it.
+
+    ## Episode end
+    Never terminates; truncated after ``max_episode_steps`` moves (registered default 4: one
+    coarse and three fine).
+
+    ## Info
+    ``distance`` (m), ``reward_distance`` (= reward), ``pixel_error`` (px, mean over the two
+    cameras of the image distance between achieved and desired goal), ``is_success``
+    (distance < ``success_threshold``), ``visible`` (both markers seen by both cameras),
+    ``visible_target`` and ``visible_effector`` ((2,) bool, per camera), ``target_pos`` and
+    ``effector_pos`` (world, m), ``clipped`` (bool), ``settle_time`` (s of simulated time the
+    move took; 0 for kinematic control).
+
+    ## Arguments
+    | argument | default | meaning |
+    |---|---|---|
+    | ``robot`` | ``"riacs"`` | ``"riacs"`` or ``"puma560"`` |
+    | ``joints`` | 3 | controlled joints (PUMA: 3 or 6; the others are held at ``home``) |
+    | ``sensing`` | ``"render"`` | ``"render"``: draw both cameras off-screen and find the markers by colour (OpenCV); ``"project"``: exact pinhole projection with the same cameras |
+    | ``control`` | ``"servo"`` | ``"servo"``: position actuators and physics until every joint is slower than 1e-3 rad/s (at least 0.02 s, at most 2 s of simulated time); ``"kinematic"``: set the joints |
+    | ``success_threshold`` | 0.005 | m |
+    | ``render_mode`` | None | ``"rgb_array"``: left view, right view and overview side by side, with the target crosshair and the detected marker drawn |
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        robot: str = "riacs",
+        joints: int = 3,
+        sensing: str = "render",
+        control: str = "servo",
+        success_threshold: float = SUCCESS_THRESHOLD,
+        render_mode: str | None = None,
+    ) -> None:
+        if robot not in ROBOTS:
+            raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
+        self.spec_robot: RobotSpec = ROBOTS[robot]
+        if joints not in self.spec_robot.joint_options:
+            raise ValueError(
+                f"{robot} can control {self.spec_robot.joint_options} joints, not {joints!r}"
+            )
+        if sensing not in SENSING_MODES:
+            raise ValueError(f"unknown sensing {sensing!r}; valid: {', '.join(SENSING_MODES)}")
+        if control not in CONTROL_MODES:
+            raise ValueError(f"unknown control {control!r}; valid: {', '.join(CONTROL_MODES)}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
+        if not success_threshold > 0:
+            raise ValueError(f"success_threshold must be > 0 m, got {success_threshold!r}")
+        self.robot, self.joints, self.sensing, self.control = robot, joints, sensing, control
+        self.success_threshold = float(success_threshold)
+        self.render_mode = render_mode
+
+        self.model = load_model(robot)
+        self.data = mujoco.MjData(self.model)
+        self._home = self.model.key("home").id
+        self._joint_ids = np.array([self.model.joint(f"joint{i + 1}").id for i in range(joints)])
+        self._qpos_ids = self.model.jnt_qposadr[self._joint_ids]
+        self._actuator_ids = np.array(
+            [self.model.actuator(f"joint{i + 1}").id for i in range(joints)]
+        )
+        self.joint_lower = self.model.jnt_range[self._joint_ids, 0].copy()
+        self.joint_upper = self.model.jnt_range[self._joint_ids, 1].copy()
+        self._site = self.model.site(self.spec_robot.sensed[joints]).id
+        self._show_only_marker(self.spec_robot.markers[joints])
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
+        mujoco.mj_forward(self.model, self.data)
+        self.stereo = StereoRig(self.model, self.data, IMAGE_HEIGHT, IMAGE_WIDTH)
+        self._view = CompositeView(self.model, IMAGE_HEIGHT, IMAGE_WIDTH)
+
+        self.action_space = gym.spaces.Box(self.joint_lower, self.joint_upper, dtype=np.float64)
+        pixels = gym.spaces.Box(-np.inf, np.inf, shape=(4,), dtype=np.float64)
+        self.observation_space = gym.spaces.Dict(
+            {
+                "observation": gym.spaces.Box(self.joint_lower, self.joint_upper, dtype=np.float64),
+                "achieved_goal": pixels,
+                "desired_goal": pixels,
+            }
+        )
+        centre = np.tile([(IMAGE_WIDTH - 1) / 2, (IMAGE_HEIGHT - 1) / 2], 2)
+        self._last = {"target": centre.copy(), "effector": centre.copy()}
+        self._visible_target = np.zeros(2, dtype=bool)
+        self._visible_effector = np.zeros(2, dtype=bool)
+        self._detected_effector = np.full(4, np.nan)
+
+    # -- Gymnasium API -------------------------------------------------------------------------
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        super().reset(seed=seed)
+        options = options or {}
+        target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
+        if options.get("keep_arm", False):
+            self.data.qvel[:] = 0.0
+        else:
+            mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
+        self.data.mocap_pos[0] = target
+        mujoco.mj_forward(self.model, self.data)
+        self._sense_target()
+        self._sense_effector()
+        return self._observation(), self._info(clipped=False, settle_time=0.0)
+
+    def step(self, action: np.ndarray):
+        command, clipped = self._check_action(action)
+        settle_time = self._move(command)
+        self._sense_effector()
+        info = self._info(clipped=clipped, settle_time=settle_time)
+        return self._observation(), -info["distance"], False, False, info
+
+    def compute_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
+    ) -> np.ndarray:
+        """Minus the distance (m) between triangulated goals; works on batches (..., 4)."""
+        a, d = np.asarray(achieved_goal, float), np.asarray(desired_goal, float)
+        shape = np.broadcast_shapes(a.shape, d.shape)[:-1]
+        pa = self.stereo.triangulate(np.broadcast_to(a, (*shape, 4)).reshape(-1, 4))
+        pd = self.stereo.triangulate(np.broadcast_to(d, (*shape, 4)).reshape(-1, 4))
+        return -np.linalg.norm(pa - pd, axis=-1).reshape(shape)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        return self._view.render(self.data, self._last["target"], self._detected_effector)
+
+    def close(self) -> None:
+        self.stereo.close()
+        self._view.close()
+
+    # -- internals -----------------------------------------------------------------------------
+
+    @property
+    def reach(self) -> float:
+        """The robot's reach in metres, for errors in % of the robot's size."""
+        return self.spec_robot.reach
+
+    def _show_only_marker(self, keep: str) -> None:
+        """Hide the effector markers of the other joint options (group 5 is never drawn)."""
+        for name in set(self.spec_robot.markers.values()) - {keep}:
+            self.model.geom_group[self.model.geom(name).id] = 5
+
+    def _check_action(self, action: np.ndarray) -> tuple[np.ndarray, bool]:
+        a = np.asarray(action, dtype=float)
+        if a.shape != (self.joints,):
+            raise ValueError(
+                f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "
+                f"got shape {a.shape}"
+            )
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise ValueError(
+                f"action for joint{bad[0] + 1} is {a[bad[0]]}; commands must be finite"
+            )
+        command = np.clip(a, self.joint_lower, self.joint_upper)
+        return command, bool(np.any(command != a))
+
+    def _move(self, command: np.ndarray) -> float:
+        if self.control == "kinematic":
+            self.data.qpos[self._qpos_ids] = command
+            self.data.qvel[:] = 0.0
+            mujoco.mj_forward(self.model, self.data)
+            return 0.0
+        self.data.ctrl[self._actuator_ids] = command
+        start = self.data.time
+        while True:
+            mujoco.mj_step(self.model, self.data)
+            elapsed = self.data.time - start
+            slow = np.max(np.abs(self.data.qvel)) < SETTLE_SPEED
+            if (elapsed >= MIN_SETTLE_TIME and slow) or elapsed >= MAX_SETTLE_TIME:
+                return float(elapsed)
+
+    def _sense_target(self) -> None:
+        pixels, visible = self._sense(self.data.mocap_pos[0], RED_TARGET)
+        self._visible_target = visible
+        if visible.all():
+            self._last["target"] = pixels
+
+    def _sense_effector(self) -> None:
+        pixels, visible = self._sense(self.data.site_xpos[self._site], GREEN_EFFECTOR)
+        self._visible_effector = visible
+        self._detected_effector = pixels
+        if visible.all():
+            self._last["effector"] = pixels
+
+    def _sense(self, point: np.ndarray, colour) -> tuple[np.ndarray, np.ndarray]:
+        if self.sensing == "render":
+            return self.stereo.sense(self.data, colour)
+        pixels = self.stereo.project(point)[0]
+        size = np.array([IMAGE_WIDTH, IMAGE_HEIGHT, IMAGE_WIDTH, IMAGE_HEIGHT])
+        inside = (pixels >= 0) & (pixels <= size - 1)
+        visible = inside.reshape(2, 2).all(axis=1)
+        return np.where(np.repeat(visible, 2), pixels, np.nan), visible
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        return {
+            "observation": self.data.qpos[self._qpos_ids].copy(),
+            "achieved_goal": self._last["effector"].copy(),
+            "desired_goal": self._last["target"].copy(),
+        }
+
+    def _info(self, clipped: bool, settle_time: float) -> dict[str, Any]:
+        target = self.data.mocap_pos[0].copy()
+        effector = self.data.site_xpos[self._site].copy()
+        distance = float(np.linalg.norm(target - effector))
+        gap = (self._last["effector"] - self._last["target"]).reshape(2, 2)
+        return {
+            "distance": distance,
+            "reward_distance": -distance,
+            "pixel_error": float(np.linalg.norm(gap, axis=1).mean()),
+            "is_success": distance < self.success_threshold,
+            "visible": bool(self._visible_target.all() and self._visible_effector.all()),
+            "visible_target": self._visible_target.copy(),
+            "visible_effector": self._visible_effector.copy(),
+            "target_pos": target,
+            "effector_pos": effector,
+            "clipped": clipped,
+            "settle_time": settle_time,
+        }
