@@ -27,7 +27,7 @@ class CompositeView:
             view = np.ascontiguousarray(self._cameras.render(data, name, VISIBLE_GROUPS))
             _crosshair(view, target_px[2 * k : 2 * k + 2])
             if np.all(np.isfinite(effector_px[2 * k : 2 * k + 2])):
-                centre = tuple(int(round(c)) for c in effector_px[2 * k : 2 * k + 2])
+                centre = tuple(round(float(c)) for c in effector_px[2 * k : 2 * k + 2])
                 cv2.circle(view, centre, 7, DETECTION, 1, cv2.LINE_AA)
             cv2.putText(
                 view,
@@ -49,6 +49,6 @@ class CompositeView:
 
 
 def _crosshair(image: np.ndarray, uv: np.ndarray, size: int = 9) -> None:
-    u, v = (int(round(c)) for c in uv)
+    u, v = (round(float(c)) for c in uv)
     cv2.line(image, (u - size, v), (u + size, v), CROSSHAIR, 1, cv2.LINE_AA)
     cv2.line(image, (u, v - size), (u, v + size), CROSSHAIR, 1, cv2.LINE_AA)

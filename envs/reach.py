@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import mujoco
@@ -81,17 +81,19 @@ class ReachEnv(gym.Env):
     move took; 0 for kinematic control).
 
     ## Arguments
-    | argument | default | meaning |
-    |---|---|---|
-    | ``robot`` | ``"riacs"`` | ``"riacs"`` or ``"puma560"`` |
-    | ``joints`` | 3 | controlled joints (PUMA: 3 or 6; the others are held at ``home``) |
-    | ``sensing`` | ``"render"`` | ``"render"``: draw both cameras off-screen and find the markers by colour (OpenCV); ``"project"``: exact pinhole projection with the same cameras |
-    | ``control`` | ``"servo"`` | ``"servo"``: position actuators and physics until every joint is slower than 1e-3 rad/s (at least 0.02 s, at most 2 s of simulated time); ``"kinematic"``: set the joints |
-    | ``success_threshold`` | 0.005 | m |
-    | ``render_mode`` | None | ``"rgb_array"``: left view, right view and overview side by side, with the target crosshair and the detected marker drawn |
+    - ``robot`` (``"riacs"``): ``"riacs"`` or ``"puma560"``.
+    - ``joints`` (3): controlled joints (PUMA: 3 or 6; the others are held at ``home``).
+    - ``sensing`` (``"render"``): ``"render"`` draws both cameras off-screen and finds the markers
+      by colour (OpenCV); ``"project"`` is the exact pinhole projection with the same cameras.
+    - ``control`` (``"servo"``): ``"servo"`` runs the position actuators until every joint is
+      slower than 1e-3 rad/s (at least 0.02 s, at most 2 s of simulated time); ``"kinematic"``
+      sets the joints.
+    - ``success_threshold`` (0.005): metres.
+    - ``render_mode`` (None): ``"rgb_array"`` gives the left view, the right view and the
+      overview side by side, with the target crosshair and the detected marker drawn.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
 
     def __init__(
         self,

@@ -105,7 +105,7 @@ class StereoRig:
         p = np.atleast_2d(np.asarray(points, dtype=float))
         xy = [c.normalized(p) for c in self.cameras]
         if not normalized:
-            xy = [c.to_pixels(n) for c, n in zip(self.cameras, xy)]
+            xy = [c.to_pixels(n) for c, n in zip(self.cameras, xy, strict=True)]
         return np.concatenate(xy, axis=-1)
 
     def triangulate(self, pixels: np.ndarray, normalized: bool = False) -> np.ndarray:
@@ -153,7 +153,7 @@ class StereoRig:
         )
         pixels = np.full(4, np.nan)
         visible = np.zeros(2, dtype=bool)
-        for k, (name, cam) in enumerate(zip(self.camera_names, self.cameras)):
+        for k, (name, cam) in enumerate(zip(self.camera_names, self.cameras, strict=True)):
             image = self._renderer.render(data, name, groups)
             found = detect_sphere(image, marker, cam.center, cam.focal)
             if found is not None:
