@@ -17,7 +17,7 @@ class CompositeView:
 
     def __init__(self, model, height: int, width: int) -> None:
         self.height, self.width = height, width
-        self._cameras = CameraRenderer(model, height, width, fast=True)
+        self._cameras = CameraRenderer(model, height, width, fast=False)
         self._overview = CameraRenderer(model, height, width, fast=False)
 
     def render(self, data, target_px: np.ndarray, effector_px: np.ndarray) -> np.ndarray:

@@ -153,6 +153,7 @@ class ReachEnv(gym.Env):
         self._last = {"target": centre.copy(), "effector": centre.copy()}
         self._visible_target = np.zeros(2, dtype=bool)
         self._visible_effector = np.zeros(2, dtype=bool)
+        self._detected_target = np.full(4, np.nan)
         self._detected_effector = np.full(4, np.nan)
 
     # -- Gymnasium API -------------------------------------------------------------------------
@@ -199,6 +200,14 @@ class ReachEnv(gym.Env):
         self.stereo.close()
         self._view.close()
 
+    def sensed_target(self) -> np.ndarray:
+        """Target pixels (4,) sensed at the last reset; NaN in a camera that did not see it."""
+        return self._detected_target.copy()
+
+    def sensed_effector(self) -> np.ndarray:
+        """Marker pixels (4,) sensed after the last move; NaN in a camera that did not see it."""
+        return self._detected_effector.copy()
+
     # -- internals -----------------------------------------------------------------------------
 
     @property
@@ -244,6 +253,7 @@ class ReachEnv(gym.Env):
     def _sense_target(self) -> None:
         pixels, visible = self._sense(self.data.mocap_pos[0], RED_TARGET)
         self._visible_target = visible
+        self._detected_target = pixels
         if visible.all():
             self._last["target"] = pixels
 

@@ -1,0 +1,99 @@
+"""One visuomotor trial on a reach env: a coarse move, then fine moves, each sensed.
+
+This is the loop of Ritter, Martinetz & Schulten: the cameras see the target at u; the controller
+gives θ0; after the move the cameras see the marker at v0; the controller corrects to θ1 from v0;
+the cameras see v1; and so on. A learner learns from (u, θ0, v0, θ1, v1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from learners.base import Controller
+
+
+@dataclass
+class Trial:
+    """What one trial saw. Index k = 0 is the coarse move, k ≥ 1 the fine moves."""
+
+    target_px: np.ndarray  # (4,) u
+    commands: list[np.ndarray] = field(default_factory=list)  # θ_k, (J,) each
+    sensed_px: list[np.ndarray] = field(default_factory=list)  # v_k, (4,) NaN if not visible
+    distances: list[float] = field(default_factory=list)  # m, ground truth after move k
+    pixel_errors: list[float] = field(default_factory=list)  # px, after move k
+    visible: list[bool] = field(default_factory=list)  # both markers seen after move k
+    reached: list[np.ndarray] = field(default_factory=list)  # (3,) world m, after move k
+    target_pos: np.ndarray | None = None  # (3,) world, m
+
+    @property
+    def target_visible(self) -> bool:
+        return bool(np.all(np.isfinite(self.target_px)))
+
+
+FrameHook = Callable[[int, Trial], None]
+
+
+def run_trial(
+    env,
+    controller: Controller,
+    fine_moves: int = 2,
+    keep_arm: bool = False,
+    on_move: FrameHook | None = None,
+) -> Trial:
+    """Reset ``env`` (a new target) and make one coarse and ``fine_moves`` fine moves.
+
+    Args:
+        env: a ReachEnv (or a wrapper of one), stepped once per move.
+        controller: gives the commands; ``reset()`` is called first.
+        keep_arm: start from where the last move left the arm instead of ``home``.
+        on_move: called after the reset (k = -1) and after every move k with the trial so far
+            (for videos).
+    Returns:
+        the :class:`Trial`. If a marker is not visible, sensed pixels are NaN and the trial stops
+        (a controller cannot correct from a position it did not see).
+    """
+    _, info = env.reset(options={"keep_arm": keep_arm})
+    base = env.unwrapped
+    trial = Trial(
+        target_px=base.sensed_target(),
+        target_pos=info["target_pos"],
+    )
+    controller.reset()
+    if on_move is not None:
+        on_move(-1, trial)
+    if not trial.target_visible:
+        return trial
+    sensed = None
+    for k in range(fine_moves + 1):
+        command = controller.act(trial.target_px, sensed)
+        _, _, _, _, info = env.step(command)
+        sensed = base.sensed_effector()
+        trial.commands.append(np.asarray(command, dtype=float))
+        trial.sensed_px.append(sensed)
+        trial.distances.append(info["distance"])
+        trial.pixel_errors.append(info["pixel_error"])
+        trial.visible.append(info["visible"])
+        trial.reached.append(info["effector_pos"])
+        if on_move is not None:
+            on_move(k, trial)
+        if not np.all(np.isfinite(sensed)):
+            break
+    return trial
+
+
+def learn_from(controller, trial: Trial) -> bool:
+    """Give a learner the first two moves of a trial; False if the trial was not usable."""
+    if len(trial.commands) < 2:
+        return False
+    return bool(
+        controller.learn(
+            trial.target_px,
+            trial.commands[0],
+            trial.sensed_px[0],
+            trial.commands[1],
+            trial.sensed_px[1],
+        )
+    )

@@ -1,0 +1,24 @@
+"""Building a controller for an env from a command-line spec (shared by the scripts)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from learners.base import Controller
+from learners.random_controller import RandomController
+
+SPECS = "random | analytic | jacobian | PATH.npz (a saved VisuomotorSOM)"
+
+
+def make_controller(spec: str, env, seed: int = 0) -> Controller:
+    """``spec``: one of ``SPECS``; ``env`` gives the joint ranges and the stereo rig."""
+    base = env.unwrapped
+    if spec == "random":
+        return RandomController(base.joint_lower, base.joint_upper, np.random.default_rng(seed))
+    if spec.endswith(".npz"):
+        from learners.som import VisuomotorSOM
+
+        return VisuomotorSOM.load(Path(spec))
+    raise ValueError(f"unknown controller {spec!r}; valid: {SPECS}")

@@ -1,0 +1,113 @@
+"""Evaluate controllers on fresh held-out targets: a table of errors after each move, and plots.
+
+    python scripts/evaluate.py --run runs/riacs                      # the trained SOM of a run
+    python scripts/evaluate.py --run runs/riacs --compare analytic jacobian
+    python scripts/evaluate.py --env PumaReach-v0 --controller analytic
+
+Plots (for the first controller, if it is a SOM): learning curve (from the run's
+metrics.jsonl), error histogram, lattice in the left camera's image, targets and reached
+positions in 3-D, error map over the workspace. Numbers go to OUT/evaluation.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import gymnasium as gym
+
+import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
+from envs import plots
+from envs.evaluation import evaluate
+from envs.rendering import render_camera
+from envs.training import MAP_FILE, METRICS_FILE, STATE_FILE
+from learners.som import VisuomotorSOM
+
+from controllers import SPECS, make_controller
+
+#: Held-out targets come from this seed unless told otherwise (never a training seed offset).
+DEFAULT_SEED = 20_000
+
+
+def main(argv: list[str] | None = None) -> dict:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--run", type=Path, help="a training run folder (som.npz, trainer.json)")
+    p.add_argument("--controller", help=f"instead of --run: {SPECS}")
+    p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
+    p.add_argument("--env", help="default: the run's env")
+    p.add_argument("--sensing", choices=("render", "project"), help="default: the run's")
+    p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
+    p.add_argument("--targets", type=int, default=1000)
+    p.add_argument("--fine-moves", type=int, default=2)
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED)
+    p.add_argument("--out", type=Path, help="default: RUN/eval or runs/eval")
+    p.add_argument("--no-plots", action="store_true")
+    args = p.parse_args(argv)
+    if (args.run is None) == (args.controller is None):
+        p.error("give either --run DIR or --controller SPEC")
+
+    run_config = {}
+    if args.run is not None:
+        run_config = json.loads((args.run / STATE_FILE).read_text())["config"]
+    env_id = args.env or run_config.get("env", "RiacsReach-v0")
+    sensing = args.sensing or run_config.get("sensing", "project")
+    control = args.control or run_config.get("control", "kinematic")
+    out = args.out or (args.run / "eval" if args.run else Path("runs/eval"))
+    env = gym.make(env_id, sensing=sensing, control=control)
+    specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
+
+    rows, results = [], {}
+    for spec in specs:
+        controller = make_controller(spec, env, args.seed)
+        env.reset(seed=args.seed)  # the same held-out targets for every controller
+        result = evaluate(env, controller, args.targets, args.fine_moves)
+        name = "som" if spec.endswith(".npz") else spec
+        results[name] = result
+        rows.append({"controller": name, **result.summary()})
+    print(
+        f"{env_id}  sensing={sensing}  control={control}  {args.targets} targets, seed {args.seed}"
+    )
+    print(format_table(rows))
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
+               "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
+    (out / "evaluation.json").write_text(json.dumps(summary, indent=1))
+
+    first = specs[0]
+    if not args.no_plots and first.endswith(".npz"):
+        write_plots(env, VisuomotorSOM.load(first), results["som"], args.run, out)
+        print(f"plots in {out}")
+    env.close()
+    return summary
+
+
+def format_table(rows: list[dict]) -> str:
+    moves = len(rows[0]["mean_mm"])
+    names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
+    head = f"{'controller':<12}" + "".join(f"{n + ' [mm]':>14}" for n in names)
+    head += f"{'last [% reach]':>16}{'last [px]':>11}{'us/query':>10}{'complete':>10}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        line = f"{r['controller']:<12}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
+        line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
+        line += f"{r['microseconds_per_query']:>10.1f}{r['complete_trials']:>10d}"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def write_plots(env, som: VisuomotorSOM, result, run: Path | None, out: Path) -> None:
+    base = env.unwrapped
+    if run is not None and (run / METRICS_FILE).is_file():
+        rows = [json.loads(r) for r in (run / METRICS_FILE).read_text().splitlines()]
+        plots.learning_curve(rows, base.reach, out / "learning_curve.png")
+    plots.error_histogram(result, out / "error_histogram.png")
+    image = render_camera(base.model, base.data, "cam_left", base.stereo.height, base.stereo.width)
+    plots.lattice_in_image(som.w, som.lattice, image, out / "lattice_left_camera.png")
+    plots.reached_3d(result, out / "reached_3d.png")
+    plots.error_map(result, out / "error_map_coarse.png", move=0)
+    plots.error_map(result, out / "error_map_final.png", move=result.moves - 1)
+
+
+if __name__ == "__main__":
+    main()
