@@ -12,15 +12,13 @@ FONT = cv2.FONT_HERSHEY_SIMPLEX
 
 
 def annotate(frame: np.ndarray, lines: Sequence[str], scale: float = 0.5) -> np.ndarray:
-    """A copy of an RGB frame with text lines in its top-left corner (white on a dark band)."""
-    out = np.ascontiguousarray(frame.copy())
-    line_height = int(22 * scale / 0.5)
-    band = line_height * len(lines) + 6
-    out[:band] = (out[:band] * 0.35).astype(out.dtype)
+    """The RGB frame under a dark band holding the text lines (white)."""
+    line_height = round(22 * scale / 0.5)
+    band = np.full((line_height * len(lines) + 8, frame.shape[1], 3), 30, dtype=frame.dtype)
     for i, text in enumerate(lines):
-        y = 4 + line_height * (i + 1) - 6
-        cv2.putText(out, text, (6, y), FONT, scale, (255, 255, 255), 1, cv2.LINE_AA)
-    return out
+        y = line_height * (i + 1) - 2
+        cv2.putText(band, text, (6, y), FONT, scale, (255, 255, 255), 1, cv2.LINE_AA)
+    return np.concatenate([band, frame], axis=0)
 
 
 class VideoWriter:

@@ -35,6 +35,9 @@ def main(argv: list[str] | None = None) -> Path:
 
     env = gym.make(args.env, sensing=args.sensing, control=args.control, render_mode="rgb_array")
     controller = make_controller(args.controller, env, args.seed)
+    title = (
+        f"{args.env}   {type(controller).__name__}   sensing={args.sensing}  control={args.control}"
+    )
     env.reset(seed=args.seed)
     with VideoWriter(args.out, args.fps) as video:
         for i in range(args.trials):
@@ -42,10 +45,7 @@ def main(argv: list[str] | None = None) -> Path:
             def record(k: int, trial: Trial, i: int = i) -> None:
                 move = "target" if k < 0 else ("coarse move" if k == 0 else f"fine move {k}")
                 error = "" if k < 0 else f"   error {trial.distances[k] * 1e3:.1f} mm"
-                lines = [
-                    f"{args.env}  {args.controller}",
-                    f"trial {i + 1}/{args.trials}   {move}{error}",
-                ]
+                lines = [title, f"trial {i + 1}/{args.trials}   {move}{error}"]
                 frame = annotate(env.render(), lines)
                 for _ in range(FRAMES_PER_MOVE):
                     video.write(frame)

@@ -35,7 +35,8 @@ def robot3df(l1, l2, theta1, theta2, theta3):
 
 
 def robot3dinv(l1, l2, x, y, z):
-    """Inverse kinematics: tool point -> (θ1, θ2, θ3), the report's single (elbow-down) branch.
+    """Inverse kinematics: tool point -> (θ1, θ2, θ3), the report's single branch (elbow above the
+    shoulder-tool line).
 
     atan(x/y) of the report is written atan2(x, y): equal for y > 0 (the report's quadrant) and
     defined at y = 0.
