@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from models import puma560, riacs
 from models.workspace import Workspace
 
@@ -20,8 +18,6 @@ class RobotSpec:
         workspace: where targets are drawn.
         sensed: site whose position the effector marker shows, by number of controlled joints.
         markers: green marker geom at each of those sites.
-        ready: joint angles (first joints) that put the sensed point at the workspace centre,
-            in view of both cameras: where a learner's joint outputs start.
     """
 
     model: str
@@ -29,7 +25,6 @@ class RobotSpec:
     workspace: Workspace
     sensed: dict[int, str]
     markers: dict[int, str]
-    ready: np.ndarray
 
     @property
     def joint_options(self) -> tuple[int, ...]:
@@ -43,12 +38,6 @@ ROBOTS: dict[str, RobotSpec] = {
         workspace=puma560.WORKSPACE,
         sensed={3: "wrist_center", 6: "tcp"},
         markers={3: "marker_wrist", 6: "marker_tcp"},
-        # Right-above configuration at the centre of the box, (-74.3, -127.6, -11.9) degrees.
-        ready=puma560.wrist_ik(
-            (puma560.WORKSPACE.lower + puma560.WORKSPACE.upper) / 2 - puma560.BASE_POS,
-            arm=1,
-            elbow=1,
-        )[0],
     ),
     "riacs": RobotSpec(
         model="riacs",
@@ -56,6 +45,5 @@ ROBOTS: dict[str, RobotSpec] = {
         workspace=riacs.WORKSPACE,
         sensed={3: "tcp"},
         markers={3: "marker_tcp"},
-        ready=riacs.HOME,  # mid-range; the tool point is then inside the workspace
     ),
 }

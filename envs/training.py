@@ -18,6 +18,7 @@ from envs.evaluation import evaluate
 from envs.trials import learn_from, run_trial
 from learners.persistence import CheckpointError
 from learners.som import VisuomotorSOM
+from models.arms import arm_kinematics
 
 MAP_FILE, STATE_FILE, METRICS_FILE = "som.npz", "trainer.json", "metrics.jsonl"
 #: The held-out targets come from the env seeded with seed + EVAL_SEED_OFFSET, never trained on.
@@ -66,7 +67,7 @@ def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
         rng=rng,
         input_low=pixels.min(axis=0),
         input_high=pixels.max(axis=0),
-        theta_init=np.resize(base.spec_robot.ready, base.joints),
+        theta_init=arm_kinematics(base.robot, base.joints).ready,
     )
 
 

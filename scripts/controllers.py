@@ -17,6 +17,14 @@ def make_controller(spec: str, env, seed: int = 0) -> Controller:
     base = env.unwrapped
     if spec == "random":
         return RandomController(base.joint_lower, base.joint_upper, np.random.default_rng(seed))
+    if spec == "analytic":
+        from learners.analytic_ik import AnalyticIK
+
+        return AnalyticIK.for_robot(base.stereo.triangulate, base.robot, joints=base.joints)
+    if spec == "jacobian":
+        from learners.jacobian_ik import JacobianIK
+
+        return JacobianIK.for_robot(base.stereo.triangulate, base.robot, joints=base.joints)
     if spec.endswith(".npz"):
         from learners.som import VisuomotorSOM
 
