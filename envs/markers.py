@@ -18,6 +18,9 @@ import numpy as np
 MIN_BLOB_PIXELS = 4
 #: A blob covering less of its convex hull than this is taken as partly occluded: not visible.
 MIN_FILL_RATIO = 0.7
+#: A blob (hull filled) smaller than this share of the image of the whole sphere, computed from
+#: its known radius and triangulated position, is taken as partly occluded: not visible.
+MIN_AREA_RATIO = 0.75
 
 
 @dataclass(frozen=True)
@@ -42,10 +45,26 @@ RED_TARGET = MarkerColour("target", True, ((0, 8), (172, 179)))
 GREEN_EFFECTOR = MarkerColour("effector", False, ((45, 75),))
 
 
+@dataclass(frozen=True)
+class Sighting:
+    """One camera's sighting of a sphere: its centre's image and the blob's size."""
+
+    uv: np.ndarray  # (2,) pixel of the projected sphere centre
+    area: float  # px², blob with its convex hull filled
+
+
 def detect_sphere(
     rgb: np.ndarray, colour: MarkerColour, center: np.ndarray, focal: np.ndarray
 ) -> np.ndarray | None:
-    """Pixel (u, v) of the projected centre of the sphere of ``colour``, or None if not visible.
+    """Pixel (u, v) of the projected centre of the sphere of ``colour``, or None if not visible."""
+    sighting = find_sphere(rgb, colour, center, focal)
+    return None if sighting is None else sighting.uv
+
+
+def find_sphere(
+    rgb: np.ndarray, colour: MarkerColour, center: np.ndarray, focal: np.ndarray
+) -> Sighting | None:
+    """The sphere of ``colour`` in an image, or None if not visible.
 
     Not visible: no blob, a blob touching the image border (cut), or one that fills less than
     MIN_FILL_RATIO of its convex hull (partly occluded). A thin link crossing into the blob is
@@ -74,7 +93,7 @@ def detect_sphere(
     rows, cols = np.nonzero(filled)
     uv = np.stack([cols + x, rows + y], axis=-1).astype(float)  # (n, 2) pixel centres
     centroid = uv.mean(axis=0)
-    return _perspective_centre(centroid, uv, center, focal)
+    return Sighting(_perspective_centre(centroid, uv, center, focal), float(len(uv)))
 
 
 def _perspective_centre(

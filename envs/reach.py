@@ -19,6 +19,7 @@ CONTROL_MODES = ("servo", "kinematic")
 SUCCESS_THRESHOLD = 0.005  # m
 IMAGE_HEIGHT, IMAGE_WIDTH = 240, 320  # sensing images, pixels
 SETTLE_SPEED = 1e-3  # rad/s: the servo move ends when every joint is slower than this ...
+SETTLE_WINDOW = 0.02  # s ... for this long (not just at a turning point of an oscillation) ...
 MIN_SETTLE_TIME = 0.02  # s ... after at least this much simulated time,
 MAX_SETTLE_TIME = 2.0  # s ... or at this cap.
 MAX_EPISODE_STEPS = 4  # moves: one coarse and up to three fine
@@ -86,8 +87,8 @@ class ReachEnv(gym.Env):
     - ``sensing`` (``"render"``): ``"render"`` draws both cameras off-screen and finds the markers
       by colour (OpenCV); ``"project"`` is the exact pinhole projection with the same cameras.
     - ``control`` (``"servo"``): ``"servo"`` runs the position actuators until every joint is
-      slower than 1e-3 rad/s (at least 0.02 s, at most 2 s of simulated time); ``"kinematic"``
-      sets the joints.
+      slower than 1e-3 rad/s for 0.02 s (at least 0.02 s, at most 2 s of simulated time);
+      ``"kinematic"`` sets the joints.
     - ``success_threshold`` (0.005): metres.
     - ``render_mode`` (None): ``"rgb_array"`` gives the left view, the right view and the
       overview side by side, with the target crosshair and the detected marker drawn.
@@ -135,6 +136,8 @@ class ReachEnv(gym.Env):
         self.joint_upper = self.model.jnt_range[self._joint_ids, 1].copy()
         self._site = self.model.site(self.spec_robot.sensed[joints]).id
         self._show_only_marker(self.spec_robot.markers[joints])
+        marker = self.model.geom(self.spec_robot.markers[joints]).id
+        self._marker_radius = float(self.model.geom_size[marker][0])  # m
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
         mujoco.mj_forward(self.model, self.data)
         self.stereo = StereoRig(self.model, self.data, IMAGE_HEIGHT, IMAGE_WIDTH)
@@ -243,11 +246,16 @@ class ReachEnv(gym.Env):
             return 0.0
         self.data.ctrl[self._actuator_ids] = command
         start = self.data.time
+        slow_since = None  # s, when every joint last became slower than SETTLE_SPEED
         while True:
             mujoco.mj_step(self.model, self.data)
             elapsed = self.data.time - start
-            slow = np.max(np.abs(self.data.qvel)) < SETTLE_SPEED
-            if (elapsed >= MIN_SETTLE_TIME and slow) or elapsed >= MAX_SETTLE_TIME:
+            if np.max(np.abs(self.data.qvel)) >= SETTLE_SPEED:
+                slow_since = None
+            elif slow_since is None:
+                slow_since = elapsed
+            settled = slow_since is not None and elapsed - slow_since >= SETTLE_WINDOW
+            if (elapsed >= MIN_SETTLE_TIME and settled) or elapsed >= MAX_SETTLE_TIME:
                 return float(elapsed)
 
     def _sense_target(self) -> None:
@@ -258,19 +266,24 @@ class ReachEnv(gym.Env):
             self._last["target"] = pixels
 
     def _sense_effector(self) -> None:
-        pixels, visible = self._sense(self.data.site_xpos[self._site], GREEN_EFFECTOR)
+        pixels, visible = self._sense(
+            self.data.site_xpos[self._site], GREEN_EFFECTOR, self._marker_radius
+        )
         self._visible_effector = visible
         self._detected_effector = pixels
         if visible.all():
             self._last["effector"] = pixels
 
-    def _sense(self, point: np.ndarray, colour) -> tuple[np.ndarray, np.ndarray]:
+    def _sense(
+        self, point: np.ndarray, colour, radius: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         if self.sensing == "render":
-            return self.stereo.sense(self.data, colour)
+            return self.stereo.sense(self.data, colour, radius)
         pixels = self.stereo.project(point)[0]
         size = np.array([IMAGE_WIDTH, IMAGE_HEIGHT, IMAGE_WIDTH, IMAGE_HEIGHT])
         inside = (pixels >= 0) & (pixels <= size - 1)
-        visible = inside.reshape(2, 2).all(axis=1)
+        in_front = np.array([c.depth(point[None])[0] > 0 for c in self.stereo.cameras])
+        visible = inside.reshape(2, 2).all(axis=1) & in_front
         return np.where(np.repeat(visible, 2), pixels, np.nan), visible
 
     def _observation(self) -> dict[str, np.ndarray]:

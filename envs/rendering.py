@@ -28,6 +28,20 @@ class RenderingUnavailableError(RuntimeError):
     """No off-screen OpenGL back-end could be started."""
 
 
+#: Whether this process has started an OpenGL context, and whether its parent had when it forked
+#: this process: EGL and OSMesa are not fork-safe, so a context made after such a fork hangs.
+_gl_started = False
+_gl_started_before_fork = False
+
+
+def _after_fork_in_child() -> None:
+    global _gl_started_before_fork
+    _gl_started_before_fork = _gl_started_before_fork or _gl_started
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
 def configure_gl_backend() -> str:
     """Choose MUJOCO_GL (and PyOpenGL's platform) before mujoco is imported; return it."""
     chosen = os.environ.get("MUJOCO_GL")
@@ -68,8 +82,17 @@ class CameraRenderer:
         self._renderer = None
 
     def _get(self):
+        global _gl_started
         if self._renderer is None:
             import mujoco
+
+            if _gl_started_before_fork:
+                raise RenderingUnavailableError(
+                    "this process was forked after its parent had started OpenGL, and EGL and "
+                    "OSMesa hang when started again after a fork. Start worker processes with "
+                    "'forkserver' or 'spawn', e.g. gymnasium.vector.AsyncVectorEnv(env_fns, "
+                    "context='forkserver'), or create them before anything renders."
+                )
 
             samples = self.model.vis.quality.offsamples
             if self.fast:  # the sample count is read when the GL context is made
@@ -83,6 +106,7 @@ class CameraRenderer:
                 ) from exc
             finally:
                 self.model.vis.quality.offsamples = samples
+            _gl_started = True
             if self.fast:
                 flags = self._renderer.scene.flags
                 for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):

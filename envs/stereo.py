@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envs.markers import MarkerColour, detect_sphere
+from envs.markers import MIN_AREA_RATIO, MarkerColour, find_sphere
 from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET, CameraRenderer
 
 
@@ -73,6 +73,22 @@ class PinholeCamera:
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Distance in front of the camera along its axis, (N,)."""
         return -(np.asarray(points, dtype=float) - self.position) @ self.rotation[:, 2]
+
+    def sphere_area(self, centres: np.ndarray, radius: float) -> np.ndarray:
+        """Area (px²) of the image of a sphere of ``radius`` (m) at each centre (N, 3), (N,).
+
+        The image is an ellipse: with α the half-angle the sphere subtends and φ the off-axis
+        angle of its centre, semi-axes sin α cos α / (cos²φ - sin²α) (radial) and
+        sin α / √(cos²φ - sin²α) in normalised coordinates.
+        """
+        local = (np.atleast_2d(np.asarray(centres, dtype=float)) - self.position) @ self.rotation
+        distance = np.linalg.norm(local, axis=-1)  # (N,)
+        sin_a = np.minimum(radius / distance, 1.0)
+        cos_phi = -local[:, 2] / distance
+        spread = np.maximum(cos_phi**2 - sin_a**2, 1e-12)
+        major = sin_a * np.sqrt(1.0 - sin_a**2) / spread
+        minor = sin_a / np.sqrt(spread)
+        return np.pi * major * minor * self.focal[0] * self.focal[1]
 
 
 class StereoRig:
@@ -136,12 +152,16 @@ class StereoRig:
         p = np.atleast_2d(np.asarray(points, dtype=float))
         return np.max([c.depth(p) / c.focal.min() for c in self.cameras], axis=0)
 
-    def sense(self, data, marker: MarkerColour) -> tuple[np.ndarray, np.ndarray]:
+    def sense(
+        self, data, marker: MarkerColour, radius: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Render both cameras and find the image centre of one coloured sphere.
 
         Only the geom groups that a real camera would see for that marker are drawn: the target
         is sensed with the robot out of view, the effector marker with the robot (which may
-        occlude it) but without the target (which it reaches and would otherwise hide).
+        occlude it) but without the target (which it reaches and would otherwise hide). With the
+        sphere's ``radius`` (m), an effector blob smaller than MIN_AREA_RATIO of the whole
+        sphere's image at the triangulated position is partly hidden by the robot: not visible.
 
         Returns:
             pixels (4,) of the sphere centre's image (NaN where not visible), visible (2,) bool.
@@ -153,12 +173,19 @@ class StereoRig:
         )
         pixels = np.full(4, np.nan)
         visible = np.zeros(2, dtype=bool)
+        areas = np.zeros(2)  # px²
         for k, (name, cam) in enumerate(zip(self.camera_names, self.cameras, strict=True)):
             image = self._renderer.render(data, name, groups)
-            found = detect_sphere(image, marker, cam.center, cam.focal)
+            found = find_sphere(image, marker, cam.center, cam.focal)
             if found is not None:
-                pixels[2 * k : 2 * k + 2] = found
+                pixels[2 * k : 2 * k + 2] = found.uv
+                areas[k] = found.area
                 visible[k] = True
+        if radius is not None and not marker.is_target and visible.all():
+            centre = self.triangulate(pixels)  # (1, 3)
+            whole = np.array([c.sphere_area(centre, radius)[0] for c in self.cameras])  # (2,)
+            visible &= areas >= MIN_AREA_RATIO * whole
+            pixels[np.repeat(~visible, 2)] = np.nan
         return pixels, visible
 
     def close(self) -> None:
