@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -156,6 +157,7 @@ class ReachEnv(gym.Env):
         self._last = {"target": centre.copy(), "effector": centre.copy()}
         self._visible_target = np.zeros(2, dtype=bool)
         self._visible_effector = np.zeros(2, dtype=bool)
+        self._image_max = np.array([IMAGE_WIDTH, IMAGE_HEIGHT] * 2, dtype=float) - 1  # px
         self._detected_target = np.full(4, np.nan)
         self._detected_effector = np.full(4, np.nan)
 
@@ -230,13 +232,11 @@ class ReachEnv(gym.Env):
                 f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "
                 f"got shape {a.shape}"
             )
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise ValueError(
-                f"action for joint{bad[0] + 1} is {a[bad[0]]}; commands must be finite"
-            )
-        command = np.clip(a, self.joint_lower, self.joint_upper)
-        return command, bool(np.any(command != a))
+        if not np.isfinite(a).all():
+            bad = int(np.flatnonzero(~np.isfinite(a))[0])
+            raise ValueError(f"action for joint{bad + 1} is {a[bad]}; commands must be finite")
+        command = np.minimum(np.maximum(a, self.joint_lower), self.joint_upper)
+        return command, not np.array_equal(command, a)
 
     def _move(self, command: np.ndarray) -> float:
         if self.control == "kinematic":
@@ -279,11 +279,10 @@ class ReachEnv(gym.Env):
     ) -> tuple[np.ndarray, np.ndarray]:
         if self.sensing == "render":
             return self.stereo.sense(self.data, colour, radius)
-        pixels = self.stereo.project(point)[0]
-        size = np.array([IMAGE_WIDTH, IMAGE_HEIGHT, IMAGE_WIDTH, IMAGE_HEIGHT])
-        inside = (pixels >= 0) & (pixels <= size - 1)
-        in_front = np.array([c.depth(point[None])[0] > 0 for c in self.stereo.cameras])
-        visible = inside.reshape(2, 2).all(axis=1) & in_front
+        pixels, depth = self.stereo.project_with_depth(point)
+        pixels, depth = pixels[0], depth[0]
+        inside = (pixels >= 0) & (pixels <= self._image_max)
+        visible = inside.reshape(2, 2).all(axis=1) & (depth > 0)
         return np.where(np.repeat(visible, 2), pixels, np.nan), visible
 
     def _observation(self) -> dict[str, np.ndarray]:
@@ -296,12 +295,12 @@ class ReachEnv(gym.Env):
     def _info(self, clipped: bool, settle_time: float) -> dict[str, Any]:
         target = self.data.mocap_pos[0].copy()
         effector = self.data.site_xpos[self._site].copy()
-        distance = float(np.linalg.norm(target - effector))
-        gap = (self._last["effector"] - self._last["target"]).reshape(2, 2)
+        distance = math.dist(target, effector)
+        du, dv, du2, dv2 = (self._last["effector"] - self._last["target"]).tolist()
         return {
             "distance": distance,
             "reward_distance": -distance,
-            "pixel_error": float(np.linalg.norm(gap, axis=1).mean()),
+            "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
             "is_success": distance < self.success_threshold,
             "visible": bool(self._visible_target.all() and self._visible_effector.all()),
             "visible_target": self._visible_target.copy(),

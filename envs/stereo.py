@@ -70,6 +70,15 @@ class PinholeCamera:
             axis=-1,
         )
 
+    def projection_matrix(self, normalized: bool = False) -> np.ndarray:
+        """P (3, 4) with P [p; 1] = depth · (u, v, 1) (pixels, or normalised with x, y up)."""
+        K = np.eye(3)
+        if not normalized:
+            (fu, fv), (cu, cv) = self.focal, self.center
+            K = np.array([[fu, 0.0, cu], [0.0, -fv, cv], [0.0, 0.0, 1.0]])
+        M = self.rotation.T * np.array([[1.0], [1.0], [-1.0]])  # rows x, y, -z: depth > 0 ahead
+        return K @ np.hstack([M, -M @ self.position[:, None]])
+
     def depth(self, points: np.ndarray) -> np.ndarray:
         """Distance in front of the camera along its axis, (N,)."""
         return -(np.asarray(points, dtype=float) - self.position) @ self.rotation[:, 2]
@@ -115,14 +124,25 @@ class StereoRig:
             PinholeCamera.from_model(model, data, c, height, width) for c in cameras
         )
         self._renderer = CameraRenderer(model, height, width)
+        # Both cameras' projections stacked, (4, 6): [p, 1] @ P = (d1 u1, d1 v1, d1, d2 u2, ...).
+        self._projection = {
+            n: np.vstack([c.projection_matrix(n) for c in self.cameras]).T for n in (False, True)
+        }
 
     def project(self, points: np.ndarray, normalized: bool = False) -> np.ndarray:
         """World points (N, 3) -> (N, 4) pixels (or normalised coordinates) in both cameras."""
+        return self.project_with_depth(points, normalized)[0]
+
+    def project_with_depth(
+        self, points: np.ndarray, normalized: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Like :meth:`project`, also returning each point's depth in each camera, (N, 2) m
+        (negative behind the camera)."""
         p = np.atleast_2d(np.asarray(points, dtype=float))
-        xy = [c.normalized(p) for c in self.cameras]
-        if not normalized:
-            xy = [c.to_pixels(n) for c, n in zip(self.cameras, xy, strict=True)]
-        return np.concatenate(xy, axis=-1)
+        P = self._projection[normalized]
+        h = p @ P[:3] + P[3]  # (N, 6)
+        depth = h[:, 2::3]  # (N, 2)
+        return (h.reshape(-1, 2, 3)[..., :2] / depth[..., None]).reshape(-1, 4), depth
 
     def triangulate(self, pixels: np.ndarray, normalized: bool = False) -> np.ndarray:
         """(N, 4) pixels (or normalised coordinates) -> (N, 3) world points, linear least squares.
