@@ -4,8 +4,6 @@ from which a run continues exactly as if it had never stopped."""
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -16,7 +14,7 @@ import numpy as np
 
 from envs.evaluation import evaluate
 from envs.trials import learn_from, run_trial
-from learners.persistence import CheckpointError
+from learners.persistence import CheckpointError, write_atomic
 from learners.som import VisuomotorSOM
 from models.arms import arm_kinematics
 
@@ -124,7 +122,7 @@ class Trainer:
             "env_rng": base.np_random.bit_generator.state,
             "arm": {n: getattr(base.data, n).tolist() for n in ("qpos", "qvel", "ctrl")},
         }
-        _write_atomic(self.out / STATE_FILE, json.dumps(state, indent=1))
+        write_atomic(self.out / STATE_FILE, lambda f: f.write(json.dumps(state, indent=1).encode()))
 
     def _truncate_metrics(self) -> None:
         """Drop evaluations logged after the checkpoint, so the file matches an unbroken run."""
@@ -133,7 +131,7 @@ class Trainer:
             rows = [
                 r for r in path.read_text().splitlines() if json.loads(r)["trial"] <= self.trial
             ]
-            _write_atomic(path, "".join(r + "\n" for r in rows))
+            write_atomic(path, lambda f: f.write("".join(r + "\n" for r in rows).encode()))
 
     # -- the loop ------------------------------------------------------------------------------
 
@@ -162,7 +160,9 @@ class Trainer:
         self.save()
 
     def train_one(self) -> None:
-        trial = run_trial(self.env, self.som, fine_moves=1, keep_arm=self.config.keep_arm)
+        trial = run_trial(
+            self.env, self.som, fine_moves=1, keep_arm=self.config.keep_arm, explore=True
+        )
         learn_from(self.som, trial)
         self.trial += 1
         for key, k in (("coarse_mm", 0), ("fine_mm", 1)):
@@ -179,7 +179,9 @@ class Trainer:
         finally:
             env.close()
             self.som.reset()
-        return {"trial": self.trial, "learned": self.som.t, **result.summary()}
+        summary = result.summary()
+        del summary["microseconds_per_query"]  # wall time: would make reruns differ
+        return {"trial": self.trial, "learned": self.som.t, **summary}
 
     def _log(self, row: dict[str, Any]) -> None:
         with open(self.out / METRICS_FILE, "a") as f:
@@ -187,16 +189,3 @@ class Trainer:
 
     def close(self) -> None:
         self.env.close()
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -42,6 +42,7 @@ def run_trial(
     fine_moves: int = 2,
     keep_arm: bool = False,
     on_move: FrameHook | None = None,
+    explore: bool = False,
 ) -> Trial:
     """Reset ``env`` (a new target) and make one coarse and ``fine_moves`` fine moves.
 
@@ -51,6 +52,8 @@ def run_trial(
         keep_arm: start from where the last move left the arm instead of ``home``.
         on_move: called after the reset (k = -1) and after every move k with the trial so far
             (for videos).
+        explore: ask a learner for exploratory fine moves (training only; see
+            ``VisuomotorSOM.act``).
     Returns:
         the :class:`Trial`. If a marker is not visible, sensed pixels are NaN and the trial stops
         (a controller cannot correct from a position it did not see).
@@ -68,7 +71,10 @@ def run_trial(
         return trial
     sensed = None
     for k in range(fine_moves + 1):
-        command = controller.act(trial.target_px, sensed)
+        if sensed is None or not explore:
+            command = controller.act(trial.target_px, sensed)
+        else:
+            command = controller.act(trial.target_px, sensed, explore=True)
         _, _, _, _, info = env.step(command)
         sensed = base.sensed_effector()
         trial.commands.append(np.asarray(command, dtype=float))

@@ -1,0 +1,579 @@
+"""The visuomotor Kohonen map: camera coordinates -> joint angles, learned from the arm's own moves.
+
+Ritter, Martinetz & Schulten (1989), Martinetz, Ritter & Schulten (1990) and Brause (1989) §3.
+Neuron r of a lattice holds w_r (where it sits in input space), θ_r (the joint angles that reach
+there) and A_r (a local linear map, ≈ the inverse Jacobian ∂θ/∂u). The state is three arrays,
+``w`` (N, D), ``theta`` (N, J) and ``A`` (N, J, D), N = prod(lattice), neurons in C order.
+
+Moving (``act``):
+    winner   s = argmin_r |u − w_r|                                                  (Brause 3.4)
+    coarse   θ0 = Σ_r g_r (θ_r + A_r (u − w_r)) / Σ_r g_r,  g_r = exp(−|r − s|² / 2σ'²)
+             (MRS 1990; ``averaging="winner"``: g_r = δ_rs, MRS 1989 and Brause 3.7)
+    fine     θ_{k+1} = θ_k + Ā (u − v_k),  Ā = Σ_r g_r A_r / Σ_r g_r, v_k sensed after θ_k
+             ``refine=True`` (not in the papers): from the second fine move on, Ā first takes
+             the Widrow-Hoff step of the previous fine move, Ā += (Δθ − ĀΔv)Δv^T/|Δv|² (a
+             Broyden update); ``refine=False`` keeps Ā fixed as MRS do.
+
+Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δv = v1 − v0:
+    w_r += ε h_rs (u − w_r),    h_rs = exp(−|r − s|² / 2σ²)                   (Brause 3.2, 3.5)
+    θ_r += ε' h'_rs (θ* − θ_r),  A_r += ε' h'_rs (A* − A_r),  h' of width σ'  (Brause 3.6, 3.8)
+    A* = A_s + (Δθ − A_s Δv) Δv^T / |Δv|²                     (Widrow-Hoff; MRS; Brause 3.10)
+    rule "mrs":    θ* = θ_s + A_s (u − v0)    error sensed after the coarse move (MRS 1989/90)
+    rule "brause": θ* = θ1 + A_s (w_s − v1)   error sensed after the fine move (Brause 3.9)
+All targets are computed from the map before the trial's updates. θ_r are then clipped into the
+joint ranges (not in the papers: when the coarse command is clipped, θ* = θ_s + A_s(u − v0)
+pushes a θ_r that lies beyond a limit further out with every trial, seen on RIACS and PUMA).
+
+Brause states (3.9)/(3.10) for his own protocol: coarse move Θ_c, fine move Θ_c + A_c(x − w_c)
+(3.7), x = u, x_I = v0, x_F = v1. For that protocol the "brause" θ* is literally (3.9),
+Θ_c + A_c(x − x_F), and with Δθ = A_c(x − w_c) the Widrow-Hoff step is (3.10) as printed,
+A_c + A_c((x − x_F) − (w_c − x_I))(x_F − x_I)^T / |x_F − x_I|², since A_c((x − x_F) − (w_c − x_I))
+= A_c(x − w_c) − A_c(x_F − x_I) = Δθ − A_c Δv: the garbled-looking (w_c − x_I) term is what
+makes the bracket the Widrow-Hoff residual. The forms above use the commands actually sent, so
+they also hold for the coarse move with its linear term used here; ``tests/test_som.py``
+checks them against the printed equations for Brause's protocol.
+
+Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range of Ā, so the
+Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine
+moves made with ``act(u, v, explore=True)`` (training) add N(0, explore(t)²) joint noise.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from learners.base import Controller, check_pixels
+from learners.persistence import CheckpointError, load_npz, save_npz
+from learners.schedules import Schedule
+
+RULES = ("mrs", "brause")
+AVERAGING = ("neighbourhood", "winner")
+KIND = "VisuomotorSOM"
+FORMAT_VERSION = 1
+
+# Schedules x_i -> x_f over t_max trials. The papers' own tables were not available to this
+# project; the starting point is Behera & Kar's implementation of the MRS 1990 algorithm (same
+# 12×7×4 lattice and 10 000 trials; L. Behera & I. Kar, "Intelligent Systems and Control",
+# 2009): ε 1 -> 0.05, σ 2 -> 0.1, ε' 0.9 constant, σ' 2.5 -> 0.01 (σ in lattice units).
+# Changed by measurement on RIACS (10 000 trials, seed 0): ε_f 0.05 -> 0.005 (coarse error
+# 2.1 % -> 1.5 % of the reach) and ε' 0.9 -> 0.1 (a constant 0.9 lets the last trial overwrite
+# θ_r and A_r: 0.93 % -> 0.17 % after two fine moves without ``refine``).
+DEFAULT_EPS = Schedule(1.0, 0.005)
+DEFAULT_SIGMA = Schedule(2.0, 0.1)
+DEFAULT_EPS_OUT = Schedule(0.9, 0.1)
+DEFAULT_SIGMA_OUT = Schedule(2.5, 0.01)
+#: Exploration std of training fine moves, rad (this project's choice; see module notes).
+DEFAULT_EXPLORE = Schedule(0.05, 0.005)
+DEFAULT_T_MAX = 10_000
+#: Trials with |Δv| below this (input units, e.g. pixels) are skipped: the Widrow-Hoff step
+#: divides by |Δv|², and a sensed displacement this small is below any detector's resolution.
+DEFAULT_MIN_DV = 1e-3
+#: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
+DEFAULT_A_INIT = 0.1
+#: Neighbourhood weights below this are dropped (truncation for speed: an update changes by
+#: less than 1e-6 of itself; the RIACS and PUMA figures are the same to 3 digits as with 1e-12).
+H_CUTOFF = 1e-6
+_LOG_CUTOFF = math.log(1.0 / H_CUTOFF)
+#: Above this fraction of the lattice, a neighbourhood is handled as the whole map (views and
+#: whole-array arithmetic beat gathering and scattering most of the rows).
+_WHOLE_MAP_FRACTION = 0.25
+#: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
+#: threads, which on 2 shared cores made act_batch 4 times slower.
+_BATCH_BLOCK = 64
+_ONE = np.ones(1)
+_ONE.flags.writeable = False
+
+ScheduleLike = Schedule | tuple[float, float] | float
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
+def _rows(array: np.ndarray, index: slice | np.ndarray) -> np.ndarray:
+    """The rows of ``array`` picked by a neighbourhood index: a view for a slice, else a copy."""
+    return array[index] if isinstance(index, slice) else array.take(index, axis=0)
+
+
+class VisuomotorSOM(Controller):
+    """Kohonen lattice with joint outputs and local linear maps (see the module docstring).
+
+    Args:
+        joint_lower, joint_upper: joint ranges (J,), rad; every command is clipped into them.
+        lattice: lattice shape, default (12, 7, 4) = 336 neurons (MRS 1990).
+        input_dim: D, 4 for two cameras' pixels (u1, v1, u2, v2), 3 for Cartesian input.
+        rule: "mrs" or "brause": the θ* the outputs learn towards.
+        averaging: "neighbourhood" (outputs averaged with width σ') or "winner".
+        refine: correct Ā between fine moves of one target (Broyden step; see module notes).
+        t_max: trials over which the schedules fall from their initial to their final value.
+        eps, sigma: ε(t) and σ(t) of the w update (σ in lattice units).
+        eps_out, sigma_out: ε'(t), σ'(t) of the θ/A update and of the output averaging.
+        explore: std (rad) of the noise of fine commands made with ``explore=True``.
+        rng: a numpy Generator or a seed; the map's only source of randomness.
+        input_low, input_high: (D,) box over which the w_r start uniformly (default [0, 1]^D;
+            pass the image bounds for pixels).
+        theta_init: (J,) start of every θ_r (default the middle of the joint ranges). Pass a
+            pose in the arm configuration that reaches the whole workspace when the middle is
+            not one, e.g. for the PUMA ``wrist_ik(workspace centre, arm=1, elbow=1)``: the map
+            keeps the configuration it starts in.
+        a_init: std of the random start of A_r, as a fraction of mean joint span / mean input
+            span (0 = start at A = 0; training then relies on ``explore``).
+        min_dv: trials with |v1 − v0| below this are skipped (input units).
+    """
+
+    def __init__(
+        self,
+        joint_lower: np.ndarray,
+        joint_upper: np.ndarray,
+        lattice: tuple[int, ...] = (12, 7, 4),
+        input_dim: int = 4,
+        rule: str = "mrs",
+        averaging: str = "neighbourhood",
+        refine: bool = True,
+        t_max: int = DEFAULT_T_MAX,
+        eps: ScheduleLike = DEFAULT_EPS,
+        sigma: ScheduleLike = DEFAULT_SIGMA,
+        eps_out: ScheduleLike = DEFAULT_EPS_OUT,
+        sigma_out: ScheduleLike = DEFAULT_SIGMA_OUT,
+        explore: ScheduleLike = DEFAULT_EXPLORE,
+        rng: np.random.Generator | int | None = None,
+        input_low: np.ndarray | None = None,
+        input_high: np.ndarray | None = None,
+        theta_init: np.ndarray | None = None,
+        a_init: float = DEFAULT_A_INIT,
+        min_dv: float = DEFAULT_MIN_DV,
+    ) -> None:
+        if rule not in RULES:
+            raise ValueError(f"unknown rule {rule!r}; valid rules: {', '.join(RULES)}")
+        if averaging not in AVERAGING:
+            raise ValueError(f"unknown averaging {averaging!r}; valid: {', '.join(AVERAGING)}")
+        self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
+        self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
+        if self.lower.shape != self.upper.shape or not np.all(self.lower < self.upper):
+            raise ValueError(
+                f"joint_lower {self.lower} and joint_upper {self.upper} need one entry per joint "
+                "with lower < upper"
+            )
+        self.lattice = tuple(int(n) for n in lattice)
+        if not self.lattice or min(self.lattice) < 1:
+            raise ValueError(f"lattice must be a tuple of positive sizes, got {lattice}")
+        if int(input_dim) < 1 or int(t_max) < 1 or not (min_dv >= 0 and a_init >= 0):
+            raise ValueError(
+                f"need input_dim >= 1, t_max >= 1, min_dv >= 0, a_init >= 0; got {input_dim}, "
+                f"{t_max}, {min_dv}, {a_init}"
+            )
+        self.input_dim, self.t_max = int(input_dim), int(t_max)
+        self.rule, self.averaging, self.refine = rule, averaging, bool(refine)
+        self.eps, self.sigma = Schedule.of(eps), Schedule.of(sigma)
+        self.eps_out, self.sigma_out = Schedule.of(eps_out), Schedule.of(sigma_out)
+        self.explore = Schedule.of(explore)
+        self.min_dv, self.a_init = float(min_dv), float(a_init)
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        D, J = self.input_dim, self.n_joints
+        low = np.zeros(D) if input_low is None else np.array(input_low, dtype=float).ravel()
+        high = np.ones(D) if input_high is None else np.array(input_high, dtype=float).ravel()
+        if low.shape != (D,) or high.shape != (D,) or not np.all(low < high):
+            raise ValueError(f"input_low/input_high must be ({D},) with low < high: {low}, {high}")
+        self.input_low, self.input_high = low, high
+        start = (self.lower + self.upper) / 2 if theta_init is None else theta_init
+        start = np.array(start, dtype=float).ravel()
+        if start.shape != (J,):
+            raise ValueError(f"theta_init must have shape ({J},), got {start.shape}")
+        self._build_lattice_tables()
+        N = self.n_neurons
+        self._w = self.rng.uniform(low, high, size=(N, D))  # (N, D)
+        self._th = np.tile(start, (N, 1))  # (N, J)
+        a_std = self.a_init * np.mean(self.upper - self.lower) / np.mean(high - low)
+        self._A = self.rng.normal(0.0, a_std, size=(N, J, D)) if a_std > 0 else np.zeros((N, J, D))
+        self.t = 0
+        self.skipped = {"not_visible": 0, "small_dv": 0}
+        self._version = 0  # counts changes of w, for the winner remembered from the coarse act
+        self._sync()
+        self.reset()
+
+    # ----------------------------------------------------------------------------- state
+    @property
+    def w(self) -> np.ndarray:
+        """(N, D) positions of the neurons in input space (read-only view; assign to set)."""
+        return _read_only(self._w)
+
+    @w.setter
+    def w(self, value: np.ndarray) -> None:
+        self._w = self._checked("w", value, self._w.shape)
+        self._sync()
+
+    @property
+    def theta(self) -> np.ndarray:
+        """(N, J) joint angles of the neurons, rad (read-only view; assign to set)."""
+        return _read_only(self._th)
+
+    @theta.setter
+    def theta(self, value: np.ndarray) -> None:
+        self._th = self._checked("theta", value, self._th.shape)
+
+    @property
+    def A(self) -> np.ndarray:
+        """(N, J, D) local linear maps, rad per input unit (read-only view; assign to set)."""
+        return _read_only(self._A)
+
+    @A.setter
+    def A(self, value: np.ndarray) -> None:
+        self._A = self._checked("A", value, self._A.shape)
+
+    @staticmethod
+    def _checked(name: str, value: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        a = np.array(value, dtype=float)  # a copy: the map owns its arrays
+        if a.shape != shape:
+            raise ValueError(f"{name} must have the map's shape {shape}, got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} contains NaN or inf; the map needs finite values")
+        return a
+
+    # ----------------------------------------------------------------------------- structure
+    @property
+    def n_joints(self) -> int:
+        return self.lower.shape[0]
+
+    @property
+    def n_neurons(self) -> int:
+        return math.prod(self.lattice)
+
+    def _build_lattice_tables(self) -> None:
+        """Lattice coordinates and, per winner s, all neurons sorted by lattice distance."""
+        self.coords = np.indices(self.lattice).reshape(len(self.lattice), -1).T  # (N, L)
+        d2 = ((self.coords[:, None, :] - self.coords[None, :, :]) ** 2).sum(-1)  # (N, N)
+        self._d2 = d2.astype(float)  # (N, N) squared lattice distances
+        self._order = np.argsort(d2, axis=1, kind="stable")  # (N, N) nearest first
+        self._d2_sorted = np.take_along_axis(self._d2, self._order, axis=1)  # (N, N)
+        self._d2_max = int(d2.max())
+        self._count = (d2[:, :, None] <= np.arange(self._d2_max + 1)).sum(1)  # (N, d2_max + 1)
+        self._whole = _WHOLE_MAP_FRACTION * self.n_neurons
+        self._memo_key: tuple[int, float] | None = None
+
+    def _sync(self) -> None:
+        """Derived data: |w_r|² for the winner search, parameters for the current t."""
+        self._w2 = np.einsum("nd,nd->n", self._w, self._w)  # (N,)
+        self._params_t = -1
+        self._version += 1  # w changed outside learn(): forget the remembered winner
+        self._last_winner: tuple[bytes, int, int] = (b"", -1, -1)
+
+    def params(self) -> tuple[float, float, float, float, float]:
+        """ε, σ, ε', σ' and the exploration std at t = trials learned so far."""
+        if self._params_t != self.t:
+            t, T = self.t, self.t_max
+            self._params = tuple(
+                s(t, T) for s in (self.eps, self.sigma, self.eps_out, self.sigma_out, self.explore)
+            )
+            self._params_t = t
+        return self._params
+
+    def _neighbours(self, s: int, sigma: float) -> tuple[slice | np.ndarray, np.ndarray]:
+        """Neurons whose weight h = exp(−|r−s|² / 2σ²) is above the cut-off, and their h.
+
+        Returns:
+            index: ``slice(s, s + 1)`` for the winner alone, ``slice(None)`` for (most of) the
+                map, with h = 0 beyond the cut-off, else the neurons' indices, nearest first.
+            h: (K,) weights in the order of ``index``.
+        """
+        if self._memo_key == (s, sigma):  # the coarse move's σ' neighbourhood, again in learn
+            return self._memo
+        self._memo_key, self._memo = (s, sigma), self._neighbourhood(s, sigma)
+        return self._memo
+
+    def _neighbourhood(self, s: int, sigma: float) -> tuple[slice | np.ndarray, np.ndarray]:
+        r2 = min(int(2.0 * sigma * sigma * _LOG_CUTOFF), self._d2_max)
+        k = self._count[s, r2]
+        if k == 1:
+            return slice(s, s + 1), _ONE
+        scale = -0.5 / (sigma * sigma)
+        if k > self._whole:
+            d2 = self._d2[s]
+            h = np.exp(d2 * scale)
+            h[d2 > r2] = 0.0
+            return slice(None), h
+        return self._order[s, :k], np.exp(self._d2_sorted[s, :k] * scale)
+
+    def _winner(self, u: np.ndarray) -> int:
+        """argmin_r |u − w_r|² = argmin_r |w_r|² − 2 w_r·u."""
+        return int((self._w2 - 2.0 * (self._w @ u)).argmin())
+
+    # ----------------------------------------------------------------------------- acting
+    def reset(self) -> None:
+        """Forget the previous command; the next ``act`` must be a coarse one."""
+        self._u: np.ndarray | None = None  # target of the current moves
+        self._cmd: np.ndarray | None = None  # last command
+        self._abar: np.ndarray | None = None  # (J, D) averaged A for the fine moves
+        self._v: np.ndarray | None = None  # position sensed before the last fine command
+        self._cmd_before: np.ndarray | None = None  # command before the last fine one
+
+    def _vector(self, name: str, x: np.ndarray) -> np.ndarray:
+        """x as a finite (D,) float array, else ValueError saying what is wrong."""
+        a = np.asarray(x, dtype=float)
+        if a.shape == (self.input_dim,) and math.isfinite(a @ a):
+            return a
+        return check_pixels(name, a, self.input_dim)  # raises, naming the problem
+
+    def _clip(self, theta: np.ndarray) -> np.ndarray:
+        return np.minimum(np.maximum(theta, self.lower), self.upper)
+
+    def _coarse(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unclipped coarse output (J,) and averaged A (J, D) for target u."""
+        s = self._winner(u)
+        self._last_winner = (u.tobytes(), self._version, s)
+        if self.averaging == "neighbourhood":
+            idx, g = self._neighbours(s, self.params()[3])
+            if len(g) > 1:
+                gn = g / g.sum()  # (K,)
+                a_k = _rows(self._A, idx)  # (K, J, D)
+                du = gn[:, None] * (u - _rows(self._w, idx))  # (K, D)
+                theta = gn @ _rows(self._th, idx) + np.einsum("kjd,kd->j", a_k, du)
+                return theta, (gn @ a_k.reshape(len(gn), -1)).reshape(a_k.shape[1:])
+        a = self._A[s]
+        return self._th[s] + a @ (u - self._w[s]), a.copy()
+
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
+        """Coarse command for target u, or, given v, the next fine command.
+
+        Args:
+            u: target in input space (pixels), (D,).
+            v: effector position sensed after the previous command, (D,); None for the coarse
+                move. Fine moves may follow each other: θ_{k+1} = θ_k + Ā (u − v_k).
+            explore: add N(0, explore(t)²) joint noise to a fine command (training only).
+        Returns:
+            joint command (J,), rad, clipped into [joint_lower, joint_upper].
+        Raises:
+            ValueError: u or v of the wrong shape or not finite, or a fine move without a coarse
+                one since the last ``reset()``; the map and its memory are then unchanged.
+        """
+        u = self._vector("u", u)
+        if v is None:
+            theta, self._abar = self._coarse(u)
+            self._u, self._v, self._cmd_before = u.copy(), None, None
+        else:
+            v = self._vector("v", v)
+            if self._cmd is None:
+                raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
+            if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
+                self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
+            if self.refine and self._v is not None:
+                dv = v - self._v
+                dv2 = float(dv @ dv)
+                if dv2 >= self.min_dv * self.min_dv:
+                    dth = self._cmd - self._cmd_before
+                    self._abar = self._abar + np.multiply.outer(dth - self._abar @ dv, dv / dv2)
+            theta = self._cmd + self._abar @ (u - v)
+            if explore and self.params()[4] > 0:
+                theta = theta + self.rng.normal(0.0, self.params()[4], size=self.n_joints)
+            self._v, self._cmd_before = v.copy(), self._cmd
+        self._cmd = self._clip(theta)
+        return self._cmd.copy()
+
+    def act_batch(self, U: np.ndarray) -> np.ndarray:
+        """Coarse commands for many targets: (M, D) -> (M, J), the same as ``act`` row by row.
+
+        Does not touch the fine-move memory. Raises ValueError for a wrong shape or NaN/inf.
+        """
+        U = np.asarray(U, dtype=float)
+        if U.ndim != 2 or U.shape[1] != self.input_dim:
+            raise ValueError(f"U must have shape (M, {self.input_dim}), got {U.shape}")
+        if not np.all(np.isfinite(U)):
+            raise ValueError("U contains NaN or inf; pass sensed pixels of visible targets")
+        out = np.empty((len(U), self.n_joints))
+        for i in range(0, len(U), _BATCH_BLOCK):
+            out[i : i + _BATCH_BLOCK] = self._coarse_batch(U[i : i + _BATCH_BLOCK])
+        return out
+
+    def _coarse_batch(self, U: np.ndarray) -> np.ndarray:
+        M, (N, J, D) = len(U), self._A.shape
+        s = (self._w2[None, :] - 2.0 * (U @ self._w.T)).argmin(1)  # (M,)
+        sigma = self.params()[3]
+        r2 = min(int(2.0 * sigma * sigma * _LOG_CUTOFF), self._d2_max)
+        if self.averaging == "winner" or r2 < 1:  # the winner alone
+            return self._clip(self._th[s] + np.einsum("mjd,md->mj", self._A[s], U - self._w[s]))
+        d2 = np.empty((M, N))
+        np.put_along_axis(d2, self._order[s], self._d2_sorted[s], axis=1)  # |r − s_m|²
+        G = np.exp(d2 * (-0.5 / (sigma * sigma)))  # (M, N)
+        G[d2 > r2] = 0.0
+        G /= G.sum(1, keepdims=True)
+        offset = self._th - np.einsum("njd,nd->nj", self._A, self._w)  # θ_r − A_r w_r, (N, J)
+        GA = (G @ self._A.reshape(N, J * D)).reshape(M, J, D)  # Ā per target
+        return self._clip(G @ offset + np.einsum("mjd,md->mj", GA, U))
+
+    # ----------------------------------------------------------------------------- learning
+    def learn(
+        self,
+        u: np.ndarray,
+        theta0: np.ndarray,
+        v0: np.ndarray,
+        theta1: np.ndarray,
+        v1: np.ndarray,
+    ) -> bool:
+        """One training trial: target u, coarse command θ0 -> sensed v0, fine θ1 -> sensed v1.
+
+        Returns:
+            True if the map learned; False if the trial was skipped and counted in ``skipped``:
+            "not_visible" when v0 or v1 holds NaN/inf (a marker not seen), "small_dv" when
+            |v1 − v0| < ``min_dv``. Only learned trials advance t.
+        Raises:
+            ValueError: u not finite or not (D,), θ0/θ1 not finite or not (J,), v0/v1 not
+                (D,); the map is then unchanged.
+        """
+        D, J = self.input_dim, self.n_joints
+        u, v0, v1 = np.asarray(u, dtype=float), np.asarray(v0, dtype=float), np.asarray(v1, float)
+        theta0, theta1 = np.asarray(theta0, dtype=float), np.asarray(theta1, dtype=float)
+        fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
+        if not (fast_ok and math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1)):
+            check_pixels("u", u, D)  # the slow path, which names what is wrong
+            check_pixels("theta0", theta0, J)
+            check_pixels("theta1", theta1, J)
+        for name, v in (("v0", v0), ("v1", v1)):
+            if v.shape != (D,):
+                raise ValueError(f"{name} must have shape ({D},), got {v.shape}")
+        if not math.isfinite(v0 @ v0 + v1 @ v1) and not (
+            np.isfinite(v0).all() and np.isfinite(v1).all()
+        ):
+            self.skipped["not_visible"] += 1
+            return False
+        dv = v1 - v0  # (D,)
+        dv2 = float(dv @ dv)
+        if dv2 < self.min_dv * self.min_dv:
+            self.skipped["small_dv"] += 1
+            return False
+        eps, sigma, eps_out, sigma_out, _ = self.params()
+        key = u.tobytes()
+        if self._last_winner[0] == key and self._last_winner[1] == self._version:
+            s = self._last_winner[2]  # found by the coarse act for this target
+        else:
+            s = self._winner(u)
+        self._version += 1
+        a_s = self._A[s]  # (J, D), read before any update
+        if self.rule == "mrs":
+            theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
+        else:
+            theta_star = theta1 + a_s @ (self._w[s] - v1)
+        a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ dv, dv / dv2)  # (J, D)
+        self._update(s, u, theta_star, a_star, eps, sigma, eps_out, sigma_out)
+        self.t += 1
+        return True
+
+    def _update(
+        self,
+        s: int,
+        u: np.ndarray,
+        theta_star: np.ndarray,
+        a_star: np.ndarray,
+        eps: float,
+        sigma: float,
+        eps_out: float,
+        sigma_out: float,
+    ) -> None:
+        """w_r += ε h (u − w_r); θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
+        idx, h = self._neighbours(s, sigma)  # index: a slice (view) or neuron indices
+        w_k = _rows(self._w, idx)  # (K, D), a view for a slice
+        w_k += (eps * h)[:, None] * (u - w_k)
+        self._w2[idx] = np.einsum("kd,kd->k", w_k, w_k)
+        if not isinstance(idx, slice):
+            self._w[idx] = w_k
+        idx, h = self._neighbours(s, sigma_out)
+        step = eps_out * h  # (K,)
+        theta_k, a_k = _rows(self._th, idx), _rows(self._A, idx)  # (K, J), (K, J, D)
+        theta_k += step[:, None] * (theta_star - theta_k)
+        self._th[idx] = self._clip(theta_k)
+        a_k += step[:, None, None] * (a_star - a_k)
+        if not isinstance(idx, slice):
+            self._A[idx] = a_k
+
+    # ----------------------------------------------------------------------------- persistence
+    _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before")
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write everything needed to continue bit-identically to one ``.npz``, atomically:
+        the arrays, the configuration, t, the skip counters, the generator state and the
+        fine-move memory."""
+        config: dict[str, Any] = {
+            "lattice": list(self.lattice),
+            "input_dim": self.input_dim,
+            "rule": self.rule,
+            "averaging": self.averaging,
+            "refine": self.refine,
+            "t_max": self.t_max,
+            "schedules": {
+                k: [getattr(self, k).initial, getattr(self, k).final]
+                for k in ("eps", "sigma", "eps_out", "sigma_out", "explore")
+            },
+            "a_init": self.a_init,
+            "min_dv": self.min_dv,
+            "t": self.t,
+            "skipped": dict(self.skipped),
+            "rng_state": self.rng.bit_generator.state,
+        }
+        arrays = {
+            "w": self._w,
+            "theta": self._th,
+            "A": self._A,
+            "joint_lower": self.lower,
+            "joint_upper": self.upper,
+            "input_low": self.input_low,
+            "input_high": self.input_high,
+        }
+        arrays.update({k: getattr(self, k) for k in self._MEMORY if getattr(self, k) is not None})
+        return save_npz(path, KIND, FORMAT_VERSION, config, arrays)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> VisuomotorSOM:
+        """Read a map written by :meth:`save`.
+
+        Raises:
+            CheckpointError: missing, damaged or truncated file, another kind of state, another
+                format version, or contents that do not fit together.
+        """
+        config, arrays = load_npz(path, KIND, FORMAT_VERSION)
+        try:
+            state = config["rng_state"]
+            bit_generator = getattr(np.random, state["bit_generator"])()
+            bit_generator.state = state
+            som = cls(
+                arrays["joint_lower"],
+                arrays["joint_upper"],
+                lattice=tuple(config["lattice"]),
+                input_dim=config["input_dim"],
+                rule=config["rule"],
+                averaging=config["averaging"],
+                refine=config["refine"],
+                t_max=config["t_max"],
+                rng=0,
+                input_low=arrays["input_low"],
+                input_high=arrays["input_high"],
+                a_init=config["a_init"],
+                min_dv=config["min_dv"],
+                **{k: tuple(v) for k, v in config["schedules"].items()},
+            )
+            for name in ("w", "theta", "A"):
+                stored, shape = arrays[name], getattr(som, name).shape
+                if stored.shape != shape or stored.dtype != np.float64:
+                    raise CheckpointError(
+                        f"{path}: array {name!r} is {stored.dtype} {stored.shape}, the stored "
+                        f"configuration needs float64 {shape}; the file is damaged or foreign"
+                    )
+                setattr(som, name, stored)  # copies, checks finiteness, refreshes caches
+            som.t = int(config["t"])
+            som.skipped = {k: int(n) for k, n in config["skipped"].items()}
+            som.rng = np.random.Generator(bit_generator)
+            for k in cls._MEMORY:
+                setattr(som, k, arrays[k].copy() if k in arrays else None)
+            som._sync()
+        except CheckpointError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise CheckpointError(
+                f"{path}: incomplete or inconsistent VisuomotorSOM checkpoint ({exc!r}); "
+                "restore it from a copy or retrain"
+            ) from exc
+        return som

@@ -1,0 +1,83 @@
+"""The command-line scripts end to end on tiny runs: video, train (with resume), evaluate."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+sys.path.insert(0, str(SCRIPTS))
+
+import evaluate  # noqa: E402
+import train  # noqa: E402
+import video  # noqa: E402
+
+import envs  # noqa: E402, F401  (GL back-end before mujoco)
+
+
+def _frames(path: Path) -> list[np.ndarray]:
+    capture = cv2.VideoCapture(str(path))
+    frames = []
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            return frames
+        frames.append(frame)
+
+
+def test_video_writes_the_expected_frames_and_they_are_not_blank(tmp_path):
+    out = tmp_path / "v.mp4"
+    trials, fine = 2, 1
+    video.main(["--env", "RiacsReach-v0", "--controller", "analytic", "--trials", str(trials),
+                "--fine-moves", str(fine), "--out", str(out)])  # fmt: skip
+    frames = _frames(out)
+    # per trial: the target frame, the coarse move and each fine move, each held FRAMES_PER_MOVE
+    assert len(frames) == trials * (fine + 2) * video.FRAMES_PER_MOVE
+    for frame in frames:
+        assert frame.std() > 20 and len(np.unique(frame.reshape(-1, 3), axis=0)) > 50
+    assert frames[0].shape[1] == 3 * 320  # left | right | overview
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run")
+    train.main(["--trials", "40", "--lattice", "4,3,2", "--eval-every", "20", "--eval-trials",
+                "5", "--out", str(out)])  # fmt: skip
+    return out
+
+
+def test_train_writes_map_state_and_metrics(run):
+    assert (run / "som.npz").is_file() and (run / "trainer.json").is_file()
+    rows = [json.loads(r) for r in (run / "metrics.jsonl").read_text().splitlines()]
+    assert [r["trial"] for r in rows] == [0, 20, 40]
+
+
+def test_evaluate_compares_controllers_on_the_same_targets(run, tmp_path, capsys):
+    summary = evaluate.main(["--run", str(run), "--targets", "20", "--compare", "analytic",
+                             "random", "--out", str(tmp_path)])  # fmt: skip
+    table = capsys.readouterr().out
+    names = [row["controller"] for row in summary["controllers"]]
+    assert names == ["som", "analytic", "random"]
+    for name in names:
+        assert name in table
+    analytic = summary["controllers"][1]
+    assert analytic["mean_mm"][0] < 1e-6  # exact IK with exact projection: no error at all
+    random = summary["controllers"][2]
+    assert random["mean_mm"][0] > summary["controllers"][0]["mean_mm"][0]
+    for plot in ("learning_curve", "error_histogram", "lattice_left_camera", "reached_3d",
+                 "error_map_coarse", "error_map_final"):  # fmt: skip
+        assert (tmp_path / f"{plot}.png").stat().st_size > 10_000
+
+
+def test_train_rejects_a_bad_lattice_with_a_clear_message():
+    result = subprocess.run(
+        [sys.executable, str(SCRIPTS / "train.py"), "--lattice", "12,x,4"],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert result.returncode == 2 and "--lattice wants sizes like 12,7,4" in result.stderr
