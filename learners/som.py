@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from learners.base import Controller, check_pixels
+from learners.lattice import Lattice
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.schedules import Schedule
 
@@ -75,18 +76,9 @@ DEFAULT_T_MAX = 10_000
 DEFAULT_MIN_DV = 1e-3
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
-#: Neighbourhood weights below this are dropped (truncation for speed: an update changes by
-#: less than 1e-6 of itself; the RIACS and PUMA figures are the same to 3 digits as with 1e-12).
-H_CUTOFF = 1e-6
-_LOG_CUTOFF = math.log(1.0 / H_CUTOFF)
-#: Above this fraction of the lattice, a neighbourhood is handled as the whole map (views and
-#: whole-array arithmetic beat gathering and scattering most of the rows).
-_WHOLE_MAP_FRACTION = 0.25
 #: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
 #: threads, which on 2 shared cores made act_batch 4 times slower.
 _BATCH_BLOCK = 64
-_ONE = np.ones(1)
-_ONE.flags.writeable = False
 
 ScheduleLike = Schedule | tuple[float, float] | float
 
@@ -186,7 +178,8 @@ class VisuomotorSOM(Controller):
         start = np.array(start, dtype=float).ravel()
         if start.shape != (J,):
             raise ValueError(f"theta_init must have shape ({J},), got {start.shape}")
-        self._build_lattice_tables()
+        self._grid = Lattice(self.lattice)
+        self.coords = self._grid.coords  # (N, L) lattice coordinates of each neuron
         N = self.n_neurons
         self._w = self.rng.uniform(low, high, size=(N, D))  # (N, D)
         self._th = np.tile(start, (N, 1))  # (N, J)
@@ -245,18 +238,6 @@ class VisuomotorSOM(Controller):
     def n_neurons(self) -> int:
         return math.prod(self.lattice)
 
-    def _build_lattice_tables(self) -> None:
-        """Lattice coordinates and, per winner s, all neurons sorted by lattice distance."""
-        self.coords = np.indices(self.lattice).reshape(len(self.lattice), -1).T  # (N, L)
-        d2 = ((self.coords[:, None, :] - self.coords[None, :, :]) ** 2).sum(-1)  # (N, N)
-        self._d2 = d2.astype(float)  # (N, N) squared lattice distances
-        self._order = np.argsort(d2, axis=1, kind="stable")  # (N, N) nearest first
-        self._d2_sorted = np.take_along_axis(self._d2, self._order, axis=1)  # (N, N)
-        self._d2_max = int(d2.max())
-        self._count = (d2[:, :, None] <= np.arange(self._d2_max + 1)).sum(1)  # (N, d2_max + 1)
-        self._whole = _WHOLE_MAP_FRACTION * self.n_neurons
-        self._memo_key: tuple[int, float] | None = None
-
     def _sync(self) -> None:
         """Derived data: |w_r|² for the winner search, parameters for the current t."""
         self._w2 = np.einsum("nd,nd->n", self._w, self._w)  # (N,)
@@ -273,32 +254,6 @@ class VisuomotorSOM(Controller):
             )
             self._params_t = t
         return self._params
-
-    def _neighbours(self, s: int, sigma: float) -> tuple[slice | np.ndarray, np.ndarray]:
-        """Neurons whose weight h = exp(−|r−s|² / 2σ²) is above the cut-off, and their h.
-
-        Returns:
-            index: ``slice(s, s + 1)`` for the winner alone, ``slice(None)`` for (most of) the
-                map, with h = 0 beyond the cut-off, else the neurons' indices, nearest first.
-            h: (K,) weights in the order of ``index``.
-        """
-        if self._memo_key == (s, sigma):  # the coarse move's σ' neighbourhood, again in learn
-            return self._memo
-        self._memo_key, self._memo = (s, sigma), self._neighbourhood(s, sigma)
-        return self._memo
-
-    def _neighbourhood(self, s: int, sigma: float) -> tuple[slice | np.ndarray, np.ndarray]:
-        r2 = min(int(2.0 * sigma * sigma * _LOG_CUTOFF), self._d2_max)
-        k = self._count[s, r2]
-        if k == 1:
-            return slice(s, s + 1), _ONE
-        scale = -0.5 / (sigma * sigma)
-        if k > self._whole:
-            d2 = self._d2[s]
-            h = np.exp(d2 * scale)
-            h[d2 > r2] = 0.0
-            return slice(None), h
-        return self._order[s, :k], np.exp(self._d2_sorted[s, :k] * scale)
 
     def _winner(self, u: np.ndarray) -> int:
         """argmin_r |u − w_r|² = argmin_r |w_r|² − 2 w_r·u."""
@@ -328,7 +283,7 @@ class VisuomotorSOM(Controller):
         s = self._winner(u)
         self._last_winner = (u.tobytes(), self._version, s)
         if self.averaging == "neighbourhood":
-            idx, g = self._neighbours(s, self.params()[3])
+            idx, g = self._grid.neighbours(s, self.params()[3])
             if len(g) > 1:
                 gn = g / g.sum()  # (K,)
                 a_k = _rows(self._A, idx)  # (K, J, D)
@@ -394,11 +349,10 @@ class VisuomotorSOM(Controller):
         M, (N, J, D) = len(U), self._A.shape
         s = (self._w2[None, :] - 2.0 * (U @ self._w.T)).argmin(1)  # (M,)
         sigma = self.params()[3]
-        r2 = min(int(2.0 * sigma * sigma * _LOG_CUTOFF), self._d2_max)
+        r2 = self._grid.cutoff_radius2(sigma)
         if self.averaging == "winner" or r2 < 1:  # the winner alone
             return self._clip(self._th[s] + np.einsum("mjd,md->mj", self._A[s], U - self._w[s]))
-        d2 = np.empty((M, N))
-        np.put_along_axis(d2, self._order[s], self._d2_sorted[s], axis=1)  # |r − s_m|²
+        d2 = self._grid.distances2(s)  # (M, N) |r − s_m|²
         G = np.exp(d2 * (-0.5 / (sigma * sigma)))  # (M, N)
         G[d2 > r2] = 0.0
         G /= G.sum(1, keepdims=True)
@@ -475,13 +429,13 @@ class VisuomotorSOM(Controller):
         sigma_out: float,
     ) -> None:
         """w_r += ε h (u − w_r); θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
-        idx, h = self._neighbours(s, sigma)  # index: a slice (view) or neuron indices
+        idx, h = self._grid.neighbours(s, sigma)  # index: a slice (view) or neuron indices
         w_k = _rows(self._w, idx)  # (K, D), a view for a slice
         w_k += (eps * h)[:, None] * (u - w_k)
         self._w2[idx] = np.einsum("kd,kd->k", w_k, w_k)
         if not isinstance(idx, slice):
             self._w[idx] = w_k
-        idx, h = self._neighbours(s, sigma_out)
+        idx, h = self._grid.neighbours(s, sigma_out)
         step = eps_out * h  # (K,)
         theta_k, a_k = _rows(self._th, idx), _rows(self._A, idx)  # (K, J), (K, J, D)
         theta_k += step[:, None] * (theta_star - theta_k)
