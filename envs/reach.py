@@ -157,7 +157,6 @@ class ReachEnv(gym.Env):
         self._last = {"target": centre.copy(), "effector": centre.copy()}
         self._visible_target = np.zeros(2, dtype=bool)
         self._visible_effector = np.zeros(2, dtype=bool)
-        self._image_max = np.array([IMAGE_WIDTH, IMAGE_HEIGHT] * 2, dtype=float) - 1  # px
         self._detected_target = np.full(4, np.nan)
         self._detected_effector = np.full(4, np.nan)
 
@@ -236,7 +235,7 @@ class ReachEnv(gym.Env):
             bad = int(np.flatnonzero(~np.isfinite(a))[0])
             raise ValueError(f"action for joint{bad + 1} is {a[bad]}; commands must be finite")
         command = np.minimum(np.maximum(a, self.joint_lower), self.joint_upper)
-        return command, not np.array_equal(command, a)
+        return command, bool((command != a).any())
 
     def _move(self, command: np.ndarray) -> float:
         if self.control == "kinematic":
@@ -280,10 +279,12 @@ class ReachEnv(gym.Env):
         if self.sensing == "render":
             return self.stereo.sense(self.data, colour, radius)
         pixels, depth = self.stereo.project_with_depth(point)
-        pixels, depth = pixels[0], depth[0]
-        inside = (pixels >= 0) & (pixels <= self._image_max)
-        visible = inside.reshape(2, 2).all(axis=1) & (depth > 0)
-        return np.where(np.repeat(visible, 2), pixels, np.nan), visible
+        (u1, v1, u2, v2), (d1, d2) = pixels[0].tolist(), depth[0].tolist()
+        visible = np.array(
+            [d1 > 0 and 0 <= u1 <= IMAGE_WIDTH - 1 and 0 <= v1 <= IMAGE_HEIGHT - 1,
+             d2 > 0 and 0 <= u2 <= IMAGE_WIDTH - 1 and 0 <= v2 <= IMAGE_HEIGHT - 1]
+        )  # fmt: skip
+        return np.where(np.repeat(visible, 2), pixels[0], np.nan), visible
 
     def _observation(self) -> dict[str, np.ndarray]:
         return {
