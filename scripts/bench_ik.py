@@ -6,8 +6,9 @@
 Targets are drawn from each robot's workspace (seeded) and projected by its stereo rig
 (``envs.StereoRig``); every controller gets the same pixels. AnalyticIK is the peer: ratios are
 its time divided by the other's (> 1: the other is faster). Each timing is the best of
-``--repeats`` runs (the machine may be shared). The SOM is an untrained
-``VisuomotorSOM`` of the default lattice (timing does not depend on training).
+``--repeats`` runs (the machine may be shared). The SOM is a ``VisuomotorSOM`` of the default
+lattice at the end of its schedule (t = t_max), as after training: its output averaging, and so
+its speed, depends on the neighbourhood width σ'(t), not on the learned values.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
 from envs import StereoRig
 from learners.analytic_ik import AnalyticIK
 from learners.jacobian_ik import JacobianIK
+from learners.som import VisuomotorSOM
 from models import load_model, puma560, riacs
 
 WORKSPACES = {"puma560": puma560.WORKSPACE, "riacs": riacs.WORKSPACE}
@@ -36,19 +38,17 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
-def make_som(arm_lower: np.ndarray, arm_upper: np.ndarray, pixels: np.ndarray):
-    """An untrained VisuomotorSOM, or None when learners/som.py is not there."""
-    try:
-        from learners.som import VisuomotorSOM
-    except ImportError:
-        return None
-    return VisuomotorSOM(
+def make_som(arm_lower: np.ndarray, arm_upper: np.ndarray, pixels: np.ndarray) -> VisuomotorSOM:
+    """A VisuomotorSOM at the end of its schedule (t = t_max), as a trained map is used."""
+    som = VisuomotorSOM(
         arm_lower,
         arm_upper,
         rng=0,
         input_low=pixels.min(axis=0) - 1,
         input_high=pixels.max(axis=0) + 1,
     )
+    som.t = som.t_max
+    return som
 
 
 def time_single(controller, U: np.ndarray, repeats: int) -> float:
@@ -89,8 +89,7 @@ def bench_robot(name: str, args: argparse.Namespace) -> None:
     }
     arm = controllers["AnalyticIK"].arm
     som = make_som(arm.lower, arm.upper, U)
-    if som is not None:
-        controllers["SOM " + "×".join(map(str, som.lattice))] = som
+    controllers["SOM " + "×".join(map(str, som.lattice))] = som
     rows = {}
     for label, c in controllers.items():
         rows[label] = (
@@ -112,8 +111,6 @@ def bench_robot(name: str, args: argparse.Namespace) -> None:
         f"JacobianIK batch: converged {100 * np.mean(jac.last_reachable):.2f} %, "
         f"mean {np.mean(jac.last_iterations):.2f} iterations"
     )
-    if som is None:
-        print("SOM: learners/som.py not importable; left out")
     rig.close()
 
 
