@@ -89,7 +89,6 @@ class NATEnet:
         max_nodes: node budget; allocation stops when it is used up.
         sigma_init: width of the first node (units of x).
         allocate: False disables allocation (fixed nets).
-        rng: numpy Generator (kept for API symmetry; learning itself is deterministic).
     """
 
     def __init__(
@@ -105,7 +104,6 @@ class NATEnet:
         max_nodes: int = MAX_NODES,
         sigma_init: float = SIGMA_INIT,
         allocate: bool = True,
-        rng: np.random.Generator | None = None,
     ) -> None:
         checks = {
             "input_dim": input_dim >= 1,
@@ -129,7 +127,6 @@ class NATEnet:
         self.T0, self.e_f, self.T_a = float(T0), float(e_f), float(T_a)
         self.max_nodes, self.sigma_init = int(max_nodes), float(sigma_init)
         self.allocate = bool(allocate)
-        self.rng = rng if rng is not None else np.random.default_rng()
         self.centres = np.empty((0, self.input_dim))  # (N, d)
         self.widths = np.empty(0)  # (N,)
         self.outputs = np.empty((0, *self.output_shape))  # (N, p, q)
@@ -290,10 +287,10 @@ class NATEnet:
         return save_npz(path, KIND, FORMAT_VERSION, self.config(), arrays)
 
     @classmethod
-    def load(cls, path: str | os.PathLike, rng: np.random.Generator | None = None) -> NATEnet:
+    def load(cls, path: str | os.PathLike) -> NATEnet:
         """Read a net written by :meth:`save`; raises ``CheckpointError`` on a bad file."""
         config, arrays = load_npz(path, KIND, FORMAT_VERSION)
-        net = cls(**config, rng=rng)
+        net = cls(**config)
         net.centres, net.widths = arrays["centres"], arrays["widths"]
         net.outputs, net.steps = arrays["outputs"], int(arrays["steps"])
         return net

@@ -182,12 +182,7 @@ def main(argv: list[str] | None = None) -> dict:
     seeds = args.seed * 10_000 + TRAIN_SEEDS + np.arange(args.train_paths)
 
     start = time.perf_counter()
-    net = NATEnet(
-        input_dim=args.input_dim,
-        max_nodes=args.max_nodes,
-        **params,
-        rng=np.random.default_rng(args.seed),
-    )
+    net = NATEnet(input_dim=args.input_dim, max_nodes=args.max_nodes, **params)
     history = train_on_paths(
         train_env, net, seeds, args.exploration, np.random.default_rng(args.seed), args.gain
     )
