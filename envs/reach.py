@@ -51,12 +51,12 @@ class ReachEnv(gym.Env):
     | ``achieved_goal`` | (4,) | px | sensed marker centre (u_left, v_left, u_right, v_right) |
     | ``desired_goal`` | (4,) | px | sensed target centre, same layout |
 
-    Pixels are array-index coordinates (u right, v down) of 320×240 images. The target is sensed
-    once per episode, at reset, with the robot out of view; the effector marker after every move,
-    with the robot (which may occlude it) but without the target (which it would hide). A marker
-    that is not seen by both cameras (occluded, cut by the image border) keeps its last valid
-    sensing in the observation and ``info["visible"]`` is False; before a marker has ever been
-    seen its entry is the image centre.
+    Pixels are array-index coordinates (u right, v down) of 320×240 images (``image_size``).
+    The target is sensed once per episode, at reset, with the robot out of view; the effector
+    marker after every move, with the robot (which may occlude it) but without the target (which
+    it would hide). A marker that is not seen by both cameras (occluded, cut by the image border)
+    keeps its last valid sensing in the observation and ``info["visible"]`` is False; before a
+    marker has ever been seen its entry is the image centre.
 
     ## Reward
     ``reward = -info["distance"]``: minus the ground-truth distance in metres between the target
@@ -91,6 +91,8 @@ class ReachEnv(gym.Env):
       slower than 1e-3 rad/s for 0.02 s (at least 0.02 s, at most 2 s of simulated time);
       ``"kinematic"`` sets the joints.
     - ``success_threshold`` (0.005): metres.
+    - ``image_size`` ((240, 320)): (height, width) of the sensing images in pixels; larger
+      images sense more precisely (the cameras' field of view stays the same) and render slower.
     - ``render_mode`` (None): ``"rgb_array"`` gives the left view, the right view and the
       overview side by side, with the target crosshair and the detected marker drawn.
     """
@@ -104,6 +106,7 @@ class ReachEnv(gym.Env):
         sensing: str = "render",
         control: str = "servo",
         success_threshold: float = SUCCESS_THRESHOLD,
+        image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH),
         render_mode: str | None = None,
     ) -> None:
         if robot not in ROBOTS:
@@ -119,6 +122,10 @@ class ReachEnv(gym.Env):
             raise ValueError(f"unknown control {control!r}; valid: {', '.join(CONTROL_MODES)}")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
+        height, width = (int(n) for n in image_size)
+        if height < 16 or width < 16:
+            raise ValueError(f"image_size is (height, width) >= (16, 16) pixels, got {image_size}")
+        self.image_height, self.image_width = height, width
         if not success_threshold > 0:
             raise ValueError(f"success_threshold must be > 0 m, got {success_threshold!r}")
         self.robot, self.joints, self.sensing, self.control = robot, joints, sensing, control
@@ -141,8 +148,8 @@ class ReachEnv(gym.Env):
         self._marker_radius = float(self.model.geom_size[marker][0])  # m
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
         mujoco.mj_forward(self.model, self.data)
-        self.stereo = StereoRig(self.model, self.data, IMAGE_HEIGHT, IMAGE_WIDTH)
-        self._view = CompositeView(self.model, IMAGE_HEIGHT, IMAGE_WIDTH)
+        self.stereo = StereoRig(self.model, self.data, height, width)
+        self._view = CompositeView(self.model, height, width)
 
         self.action_space = gym.spaces.Box(self.joint_lower, self.joint_upper, dtype=np.float64)
         pixels = gym.spaces.Box(-np.inf, np.inf, shape=(4,), dtype=np.float64)
@@ -153,7 +160,7 @@ class ReachEnv(gym.Env):
                 "desired_goal": pixels,
             }
         )
-        centre = np.tile([(IMAGE_WIDTH - 1) / 2, (IMAGE_HEIGHT - 1) / 2], 2)
+        centre = np.tile([(width - 1) / 2, (height - 1) / 2], 2)
         self._last = {"target": centre.copy(), "effector": centre.copy()}
         self._visible_target = np.zeros(2, dtype=bool)
         self._visible_effector = np.zeros(2, dtype=bool)
@@ -280,9 +287,10 @@ class ReachEnv(gym.Env):
             return self.stereo.sense(self.data, colour, radius)
         pixels, depth = self.stereo.project_with_depth(point)
         (u1, v1, u2, v2), (d1, d2) = pixels[0].tolist(), depth[0].tolist()
+        u_max, v_max = self.image_width - 1, self.image_height - 1
         visible = np.array(
-            [d1 > 0 and 0 <= u1 <= IMAGE_WIDTH - 1 and 0 <= v1 <= IMAGE_HEIGHT - 1,
-             d2 > 0 and 0 <= u2 <= IMAGE_WIDTH - 1 and 0 <= v2 <= IMAGE_HEIGHT - 1]
+            [d1 > 0 and 0 <= u1 <= u_max and 0 <= v1 <= v_max,
+             d2 > 0 and 0 <= u2 <= u_max and 0 <= v2 <= v_max]
         )  # fmt: skip
         return np.where(np.repeat(visible, 2), pixels[0], np.nan), visible
 

@@ -200,3 +200,25 @@ def test_sense_reports_a_marker_outside_the_images_as_not_visible(env):
     pixels, seen = env.stereo.sense(data, RED_TARGET)
     assert not seen.any()
     assert np.isnan(pixels).all()
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_a_larger_image_scales_the_pinhole_and_renders_it(robot):
+    """Twice the image size: pixel centres map as u' = 2u + 0.5 (index coordinates), the field
+    of view unchanged; rendered sensing still agrees with the projection."""
+    small = ReachEnv(robot=robot, sensing="render", control="kinematic")
+    large = ReachEnv(robot=robot, sensing="render", control="kinematic", image_size=(480, 640))
+    points = small.spec_robot.workspace.sample(np.random.default_rng(7), 50)
+    np.testing.assert_allclose(
+        large.stereo.project(points), 2 * small.stereo.project(points) + 0.5, atol=1e-9
+    )
+    large.reset(seed=3)
+    target = large.data.mocap_pos[0]
+    assert np.abs(large.sensed_target() - large.stereo.project(target)[0]).max() < 0.5
+    for env in (small, large):
+        env.close()
+
+
+def test_image_size_must_be_positive_pixels():
+    with pytest.raises(ValueError, match="image_size"):
+        ReachEnv(image_size=(0, 320))
