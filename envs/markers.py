@@ -53,14 +53,6 @@ class Sighting:
     area: float  # px², blob with its convex hull filled
 
 
-def detect_sphere(
-    rgb: np.ndarray, colour: MarkerColour, center: np.ndarray, focal: np.ndarray
-) -> np.ndarray | None:
-    """Pixel (u, v) of the projected centre of the sphere of ``colour``, or None if not visible."""
-    sighting = find_sphere(rgb, colour, center, focal)
-    return None if sighting is None else sighting.uv
-
-
 def find_sphere(
     rgb: np.ndarray, colour: MarkerColour, center: np.ndarray, focal: np.ndarray
 ) -> Sighting | None:

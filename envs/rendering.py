@@ -80,6 +80,7 @@ class CameraRenderer:
             )
         self.model, self.height, self.width, self.fast = model, height, width, fast
         self._renderer = None
+        self._options: dict = {}  # geom groups -> mujoco.MjvOption
 
     def _get(self):
         global _gl_started
@@ -118,13 +119,17 @@ class CameraRenderer:
         import mujoco
 
         renderer = self._get()
-        option = mujoco.MjvOption()
-        if self.fast:
-            option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = 0
-        if groups is not None:
-            option.geomgroup[:] = 0
-            for g in groups:
-                option.geomgroup[g] = 1
+        key = None if groups is None else tuple(groups)
+        option = self._options.get(key)
+        if option is None:  # built once per set of groups: this is on every sensing step
+            option = mujoco.MjvOption()
+            if self.fast:
+                option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = 0
+            if key is not None:
+                option.geomgroup[:] = 0
+                for g in key:
+                    option.geomgroup[g] = 1
+            self._options[key] = option
         renderer.update_scene(data, camera=camera, scene_option=option)
         return renderer.render()
 
@@ -134,7 +139,7 @@ class CameraRenderer:
             self._renderer = None
 
     def __getstate__(self) -> dict:
-        return {**self.__dict__, "_renderer": None}
+        return {**self.__dict__, "_renderer": None, "_options": {}}
 
 
 def render_camera(model, data, camera: str, height: int = 240, width: int = 320) -> np.ndarray:

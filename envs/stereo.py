@@ -48,18 +48,6 @@ class PinholeCamera:
             data.cam_xpos[cid].copy(), data.cam_xmat[cid].reshape(3, 3).copy(), focal, center
         )
 
-    def normalized(self, points: np.ndarray) -> np.ndarray:
-        """World points (N, 3) -> normalised image coordinates (N, 2)."""
-        pc = (np.asarray(points, dtype=float) - self.position) @ self.rotation  # (N, 3) camera
-        return pc[:, :2] / -pc[:, 2:3]
-
-    def to_pixels(self, xy: np.ndarray) -> np.ndarray:
-        """Normalised (N, 2) -> pixels (N, 2)."""
-        return np.stack(
-            [self.center[0] + self.focal[0] * xy[:, 0], self.center[1] - self.focal[1] * xy[:, 1]],
-            axis=-1,
-        )
-
     def to_normalized(self, uv: np.ndarray) -> np.ndarray:
         """Pixels (N, 2) -> normalised (N, 2)."""
         return np.stack(
@@ -79,9 +67,11 @@ class PinholeCamera:
         M = self.rotation.T * np.array([[1.0], [1.0], [-1.0]])  # rows x, y, -z: depth > 0 ahead
         return K @ np.hstack([M, -M @ self.position[:, None]])
 
-    def depth(self, points: np.ndarray) -> np.ndarray:
-        """Distance in front of the camera along its axis, (N,)."""
-        return -(np.asarray(points, dtype=float) - self.position) @ self.rotation[:, 2]
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """World points (N, 3) -> pixels (N, 2)."""
+        P = self.projection_matrix()
+        h = np.atleast_2d(np.asarray(points, dtype=float)) @ P[:, :3].T + P[:, 3]  # (N, 3)
+        return h[:, :2] / h[:, 2:3]
 
     def sphere_area(self, centres: np.ndarray, radius: float) -> np.ndarray:
         """Area (px²) of the image of a sphere of ``radius`` (m) at each centre (N, 3), (N,).
@@ -166,11 +156,6 @@ class StereoRig:
         MtM = np.einsum("nki,nkj->nij", M, M)
         Mtb = np.einsum("nki,nk->ni", M, b)
         return np.linalg.solve(MtM, Mtb[..., None])[..., 0]
-
-    def pixel_size(self, points: np.ndarray) -> np.ndarray:
-        """Metres per pixel at each point, (N,), the worse of the two cameras (for error units)."""
-        p = np.atleast_2d(np.asarray(points, dtype=float))
-        return np.max([c.depth(p) / c.focal.min() for c in self.cameras], axis=0)
 
     def sense(
         self, data, marker: MarkerColour, radius: float | None = None

@@ -235,7 +235,7 @@ class PumaTrackEnv(gym.Env):
             (self.path.positions, PATH_COLOUR),
             (np.array(self.trace), TRACE_COLOUR),
         ):
-            uv = camera.to_pixels(camera.normalized(points))
+            uv = camera.project(points)
             cv2.polylines(frame, [np.round(uv).astype(np.int32)], False, colour, 1, cv2.LINE_AA)
         return frame
 

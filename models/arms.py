@@ -26,6 +26,7 @@ from models.chain import RIACS_CHAIN, RIACS_JOINTS, riacs_parameters
 from models.joints import wrap_into_range
 from models.puma560.inverse import pose_ik
 from models.puma560.kinematics import A2, A3, CONFIGURATIONS, D2, D4, jacobian, wrist_center
+from models.rotations import homogeneous
 
 #: Keep pulled-in targets this far (relative) inside the reach limits, so that arccos stays real.
 REACH_MARGIN = 1e-9
@@ -173,9 +174,7 @@ def puma560_tool(
     def inverse(points: np.ndarray, reference: np.ndarray | None = None):
         p = np.atleast_2d(np.asarray(points, dtype=float)) - puma560.BASE_POS  # (N, 3) frame 0
         centre, exact = _puma_pull(p - d6 * R[:, 2])  # wrist centres, pulled into reach
-        T = np.broadcast_to(np.eye(4), (len(p), 4, 4)).copy()
-        T[:, :3, :3] = R
-        T[:, :3, 3] = centre + d6 * R[:, 2]
+        T = homogeneous(R, centre + d6 * R[:, 2])  # (N, 4, 4)
         theta, valid = pose_ik(T, arm, elbow, wrist, reference)
         return theta, valid & exact
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from models.puma560 import BASE_POS, DH, WORKSPACE, frames, inverse, wrist_ik
 from models.puma560.kinematics import jacobian
-from models.rotations import rotvec_to_matrix
+from models.rotations import homogeneous, rotvec_to_matrix
 
 DEG = np.pi / 180.0
 PATH_KINDS = ("circle", "line")
@@ -70,11 +70,7 @@ def pose_ik(
     Returns:
         theta (..., 6) rad, in the joint ranges; valid (...,) bool (reachable, in range).
     """
-    position, rotation = np.asarray(position, dtype=float), np.asarray(rotation, dtype=float)
-    T06 = np.zeros((*position.shape[:-1], 4, 4))
-    T06[..., :3, :3] = rotation
-    T06[..., :3, 3] = position - BASE_POS
-    T06[..., 3, 3] = 1.0
+    T06 = homogeneous(rotation, np.asarray(position, dtype=float) - BASE_POS)
     return inverse.pose_ik(T06, arm, elbow, wrist)
 
 

@@ -57,3 +57,14 @@ def matrix_to_rotvec(R: np.ndarray) -> np.ndarray:
 def orientation_error(R_desired: np.ndarray, R: np.ndarray) -> np.ndarray:
     """Rotation vector (world frame, rad) that turns R into R_desired: log(R_d·Rᵀ), (..., 3)."""
     return matrix_to_rotvec(np.asarray(R_desired) @ np.swapaxes(np.asarray(R), -1, -2))
+
+
+def homogeneous(rotation: np.ndarray, position: np.ndarray) -> np.ndarray:
+    """4×4 transforms from rotations (..., 3, 3) and positions (..., 3), broadcast."""
+    rotation, position = np.asarray(rotation, dtype=float), np.asarray(position, dtype=float)
+    shape = np.broadcast_shapes(rotation.shape[:-2], position.shape[:-1])
+    T = np.zeros((*shape, 4, 4))
+    T[..., :3, :3] = rotation
+    T[..., :3, 3] = position
+    T[..., 3, 3] = 1.0
+    return T
