@@ -1,12 +1,15 @@
-"""Reproduce Brause (1989) §5-6 for the PUMA 560: storage table 6a, the linear-approximation error
-e^LA along a straight path (Figs. 5f-5i, fit 5.7-5.8), and e^LA of learned Kohonen maps.
+"""Reproduce Brause (1989) §5-6 and appendix B for the PUMA 560: storage table 6a, the
+linear-approximation error e^LA along a straight path (Figs. 5f-5i, fit 5.7-5.8) and over the
+whole reachable workspace (slope scan), the optimal storage resolution (§6.2, appendix B, Figs.
+6.2 and B.1), and e^LA of learned Kohonen maps.
 
     python scripts/reproduce_brause.py                # everything, outputs in runs/brause
-    python scripts/reproduce_brause.py --no-som       # (a) and (b) only, a few seconds
+    python scripts/reproduce_brause.py --no-som       # without the learned maps, a few seconds
 
 Outputs: ``brause.json`` (all numbers), ``fig5f_joints.png``, ``fig5g_joint_error.png``,
-``fig5h_cartesian_error.png``, ``fig5i_fit.png``. See ``models/puma560/brause.py`` for the
-definitions (path, cell border, central difference) and the choices made where the text is open.
+``fig5h_cartesian_error.png``, ``fig5i_fit.png``, ``fig6_2_storage_error.png``,
+``figB_1_optimal_resolution.png``. See ``models/puma560/brause.py`` and
+``models/puma560/resolution.py`` for the definitions and the readings of garbled equations.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ import numpy as np
 
 from models.puma560 import DH, WORKSPACE_BASE_LOWER, WORKSPACE_BASE_UPPER
 from models.puma560 import brause as B
+from models.puma560 import resolution as RES
 
 TABLE_N = (10, 50, 100, 1000)
 PLOT_N = (10, 100, 1000)  #: curves drawn in Figs. 5g, 5h (his choice)
@@ -38,7 +42,13 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--points", type=int, default=401, help="samples along the path")
     p.add_argument("--edge", type=float, default=B.BRAUSE_EDGE, help="workspace edge X (m)")
     p.add_argument("--dx", type=float, default=B.DX, help="central-difference step of (5.4), m")
-    p.add_argument("--no-som", action="store_true", help="skip (c), the learned maps")
+    p.add_argument("--no-som", action="store_true", help="skip the learned maps")
+    p.add_argument(
+        "--scan-spacing",
+        type=float,
+        default=B.SCAN_SPACING,
+        help="grid spacing (m) of the slope scan over the workspace",
+    )
     p.add_argument(
         "--lattices",
         type=int,
@@ -122,6 +132,8 @@ def path_study(args) -> dict:
         "A_P": A_path[P],
         "theta": B.exact_joints(w)[0],
         "V_A": float(A_path.max() - A_path.min()),
+        "S_A": float(np.max(np.abs(A_path[P].sum(axis=1)))),  # his max_i Σ_j A_ij, magnitude
+        "S_A_abs": float(np.max(np.abs(A_path[P]).sum(axis=1))),  # max_i Σ_j |A_ij|
         "b_range": (float(slopes.min()), float(slopes.max())),
     }
 
@@ -144,28 +156,43 @@ def print_fits(study: dict) -> None:
         print(f"{name:<28} {f['b']:>10.5f} {f['C']:>12.5g}")
 
 
-def notes(study: dict) -> list[str]:
-    """Why our b and C differ from Brause's, with the numbers of this run."""
+def notes(study: dict, scan: dict) -> list[str]:
+    """Where our b, C, S_A and V_A differ from Brause's, with the numbers of this run."""
     rad, deg = study["fits"]["joint [rad]"], study["fits"]["joint [deg]"]
-    S_A = float(np.max(np.abs(study["A_P"].sum(axis=1))))
     lo, hi = study["b_range"]
     return [
-        f"Units: his e^LA is a joint error in radians. Our C is {rad['C']:.3g} in rad but "
-        f"{deg['C']:.3g} in degrees (his 2.01). His A-matrix figures, S_A = 1e-5 and V_A = 2e-4 "
-        f"per 1e-2 mm (= 1 and 20 rad/m), match ours in rad/m (S_A = {S_A:.2g} at P, V_A = "
-        f"{study['V_A']:.3g} along the path) and would be 57x larger in degrees. Lengths cancel: "
-        "the cell is X/n with the same X = 717 mm.",
-        f"Slope: b = {rad['b']:.4f} at P, and between {lo:.3f} and {hi:.3f} at every path point "
-        "whose cells are reachable for all n. A tangent-plane approximation errs by "
-        "1/2 h^T (d2t) h + O(h^3) with h = dx/2 ~ 1/n, so b -> -2 wherever t is smooth; b < -2 "
-        "only where higher-order terms compete at coarse n (here: near the edge of reach at the "
-        "end of the path). His b = -2.66 needs a P close to a singularity or the reach border "
-        "(his V_A is larger than ours) or an A that is not the tangent; his P is not published, "
-        "so which one cannot be decided.",
+        f"Units: his e^LA is a joint error in radians. Our C is {rad['C']:.3g} rad "
+        f"({deg['C']:.3g} in degrees; his 2.01). His A figures are per 1e-2 mm: S_A = 1e-5 is "
+        f"1 rad/m, V_A = 2e-4 is 20 rad/m. Ours: S_A = max_i |Σ_j A_ij| = {study['S_A']:.2f} rad/m "
+        f"at our P (max_i Σ_j |A_ij| = {study['S_A_abs']:.2f}), V_A = {study['V_A']:.3g} rad/m "
+        "along our path: the same order of magnitude, not the same values (our P and path are "
+        "not his).",
+        f"Slope: b = {rad['b']:.4f} at our P, between {lo:.3f} and {hi:.3f} at every point of our "
+        f"path whose cells are reachable for all n, and between {scan['b_min']:.3f} and "
+        f"{scan['b_max']:.3f} over {scan['points']} reachable grid points of the whole workspace "
+        f"({scan['spacing_m'] * 1e3:.0f} mm grid, n = 10...1000). b = -2.66 is not reproduced "
+        "anywhere. A tangent-plane approximation errs by 1/2 h^T (d2t) h + O(h^3) with h ~ 1/n, "
+        "so b -> -2 wherever t is smooth. Hypotheses for his -2.66, none testable without his "
+        "P and program: an A_c that is not the tangent (e.g. a one-sided or coarse difference "
+        "in 5.4), a fit over a different range of n, border points other than corners and face "
+        "centres, or a P outside the joint ranges used here.",
         f"C: ours {rad['C']:.3g} rad against his 2.01 depends on where P lies (the curvature of t "
         "there) and on b: with his steeper slope, errors of the same size at n ~ 10 extrapolate "
         "to a larger C at n = 1.",
     ]
+
+
+def slope_scan(spacing: float) -> dict:
+    points, b, _ = B.slope_scan(spacing)
+    return {
+        "spacing_m": spacing,
+        "n": list(B.SCAN_N),
+        "points": len(points),
+        "b_min": float(b.min()),
+        "b_max": float(b.max()),
+        "b_percentiles_1_50_99": np.percentile(b, [1, 50, 99]).tolist(),
+        "point_of_min_b_m": points[np.argmin(b)].tolist(),
+    }
 
 
 def plot_path(study: dict, out: Path) -> None:
@@ -236,6 +263,150 @@ def plot_fit(study: dict, som: list[dict], out: Path) -> None:
     plt.close(fig)
 
 
+#: r_w (bits) along which Figs. 6.2 and B.1 are drawn (the paper plots against s(r_w)).
+R_W_GRID = np.arange(6.0, 44.01, 0.25)
+#: Storage (bytes) of the paper's two comparisons.
+PAPER_BYTES = (RES.PUBLISHED["storage_bytes"], RES.PUBLISHED["big_storage_bytes"])
+
+
+def error_models(study: dict) -> dict[str, tuple[RES.ErrorModel, str]]:
+    """The three curves: his (b, C, V_A, S_A) read as he computed and as derived, and ours."""
+    fit = study["fits"]["joint [rad]"]
+    ours = RES.ErrorModel(b=fit["b"], C=fit["C"], V_A=study["V_A"], S_A=study["S_A"])
+    paper = RES.ErrorModel()
+    return {
+        "paper (b, C), g as published": (paper, "published"),
+        "paper (b, C), g derived": (paper, "derived"),
+        "ours (b, C, V_A, S_A), g derived": (ours, "derived"),
+    }
+
+
+def config_row(model: RES.ErrorModel, c: RES.Config, theta_p: np.ndarray) -> dict:
+    e = float(model.e_joint(c.n, c.r_w, c.r_theta, c.r_A))
+    q = c.equal()
+    e_eq = float(model.e_joint(q.n, q.r_w, q.r_theta, q.r_A))
+    return {
+        "n": c.n,
+        "r_w": c.r_w,
+        "r_theta": c.r_theta,
+        "r_A": c.r_A,
+        "r_equal": q.r_w,
+        "storage_MB": c.bits / RES.BITS_PER_BYTE / 1e6,
+        "e_max_rad": float(np.sqrt(3) * e),
+        "e_max_equal_rad": float(np.sqrt(3) * e_eq),
+        "cartesian_mm": float(RES.cartesian_error(theta_p, e)) * 1e3,
+        "cartesian_equal_mm": float(RES.cartesian_error(theta_p, e_eq)) * 1e3,
+        "ratio_opt_to_equal": e / e_eq,
+    }
+
+
+def resolution_study(study: dict) -> dict:
+    """Appendix B for each error model: the optimum at r_w = 17 (his point) and at his two
+    storages, the brute-force check, and the curves of Figs. 6.2 and B.1."""
+    theta_p = study["theta"][study["P"]]
+    out = {}
+    for name, (model, reading) in error_models(study).items():
+        curve = [RES.optimum(model, r, reading) for r in R_W_GRID]
+        at = {f"{b:.3g} B": RES.optimum_for_storage(model, b * 8, reading) for b in PAPER_BYTES}
+        c19 = at[f"{PAPER_BYTES[0]:.3g} B"]
+        brute = RES.grid_minimum(model, c19.bits, c19)
+        out[name] = {
+            "model": vars(model) | {"reading": reading},
+            "at_r_w_17": config_row(model, RES.optimum(model, 17.0, reading), theta_p),
+            **{f"at {k}": config_row(model, c, theta_p) for k, c in at.items()},
+            "brute_force_at_1.9MB": config_row(model, brute, theta_p),
+            "curve": [config_row(model, c, theta_p) for c in curve],
+        }
+    out["published"] = RES.PUBLISHED
+    return out
+
+
+def print_resolution(res: dict) -> None:
+    p = RES.PUBLISHED
+    print("\n§6.2 / appendix B: optimal storage resolution (e^MAX per (B.1); Cartesian at our P)")
+    head = (
+        f"{'model, where':<48}{'n':>7}{'r_w':>7}{'r_θ':>7}{'r_A':>7}{'r=':>7}{'MB':>7}"
+        f"{'e^MAX rad':>11}{'opt mm':>8}{'equal mm':>9}{'opt/eq':>8}"
+    )
+    print(head + "\n" + "-" * len(head))
+    print(
+        f"{'Brause (printed in §6.2)':<48}{p['n']:>7}{p['r_w']:>7}{p['r_theta']:>7}{p['r_A']:>7}"
+        f"{p['r_equal']:>7}{p['storage_bytes'] / 1e6:>7}{'':>11}{p['e_opt_mm']:>8}"
+        f"{p['e_equal_mm']:>9}{p['e_opt_mm'] / p['e_equal_mm']:>8.3f}"
+    )
+    for name, r in res.items():
+        if name == "published":
+            continue
+        for where in ("at_r_w_17", "at 1.9e+06 B", "brute_force_at_1.9MB"):
+            c = r[where]
+            print(
+                f"{name + ', ' + where:<48.48}{c['n']:>7.2f}{c['r_w']:>7.2f}{c['r_theta']:>7.2f}"
+                f"{c['r_A']:>7.2f}{c['r_equal']:>7.2f}{c['storage_MB']:>7.3f}"
+                f"{c['e_max_rad']:>11.4g}{c['cartesian_mm']:>8.3f}{c['cartesian_equal_mm']:>9.3f}"
+                f"{c['ratio_opt_to_equal']:>8.3f}"
+            )
+        if r["model"]["reading"] == "published":
+            c = r["at_r_w_17"]
+            print(
+                f"{'':<4}Cartesian per rad of e^MAX: at our P "
+                f"{c['cartesian_mm'] / c['e_max_rad']:.0f} mm/rad; at his P (0.201 mm at his "
+                f"equal-r point) {p['e_equal_mm'] / c['e_max_equal_rad']:.0f} mm/rad"
+            )
+        big = r["at 1.13e+14 B"]
+        print(
+            f"{'':<4}at 1.13e14 bytes: equal-resolution error / optimal = "
+            f"{1 / big['ratio_opt_to_equal']:.2f} (Brause: {p['big_ratio']})"
+        )
+
+
+def plot_resolution(res: dict, out: Path) -> None:
+    styles = dict(zip([k for k in res if k != "published"], ("-", "--", ":"), strict=True))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for name, ls in styles.items():
+        curve = res[name]["curve"]
+        mb = np.array([c["storage_MB"] for c in curve]) * 1e6
+        for ax, key, scale in ((axes[0], "e_max", 1.0), (axes[1], "cartesian", 1.0)):
+            opt = [c[f"{key}_rad" if key == "e_max" else f"{key}_mm"] for c in curve]
+            eq = [c[f"{key}_equal_rad" if key == "e_max" else f"{key}_equal_mm"] for c in curve]
+            ax.loglog(mb, np.array(opt) * scale, ls, color="C0", label=f"optimal, {name}")
+            ax.loglog(mb, np.array(eq) * scale, ls, color="C3", label=f"equal r, {name}")
+    p = RES.PUBLISHED
+    axes[1].loglog(
+        [p["storage_bytes"]] * 2,
+        [p["e_opt_mm"], p["e_equal_mm"]],
+        "k*",
+        ms=10,
+        label="Brause: 0.164 / 0.201 mm at 1.9 MB",
+    )
+    axes[0].set(xlabel="storage (bytes)", ylabel="e^MAX (rad)", title="Fig. 6.2a: joint error")
+    axes[1].set(
+        xlabel="storage (bytes)",
+        ylabel="Cartesian error (mm, at our P)",
+        title="Fig. 6.2b: Cartesian error",
+    )
+    axes[0].legend(fontsize=6)
+    axes[1].legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(out / "fig6_2_storage_error.png", dpi=120)
+    plt.close(fig)
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    for name, ls in styles.items():
+        curve = res[name]["curve"]
+        mb = np.array([c["storage_MB"] for c in curve]) * 1e6
+        for key, color in (("r_w", "C0"), ("r_theta", "C1"), ("r_A", "C2")):
+            ax.semilogx(mb, [c[key] for c in curve], ls, color=color, label=f"{key}, {name}")
+        ax2.loglog(mb, [c["n"] for c in curve], ls, color="C4", label=f"n, {name}")
+    ax.plot([p["storage_bytes"]] * 3, [p["r_w"], p["r_theta"], p["r_A"]], "k*", ms=9)
+    ax2.plot([p["storage_bytes"]], [p["n"]], "k*", ms=9, label="Brause: n = 39.6 at 1.9 MB")
+    ax.set(xlabel="storage (bytes)", ylabel="bits", title="Fig. B.1a: optimal resolutions")
+    ax2.set(xlabel="storage (bytes)", ylabel="n", title="Fig. B.1b: optimal neurons per dimension")
+    ax.legend(fontsize=6)
+    ax2.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(out / "figB_1_optimal_resolution.png", dpi=120)
+    plt.close(fig)
+
+
 def som_study(args, w: np.ndarray) -> list[dict]:
     from learners.som import VisuomotorSOM
 
@@ -289,8 +460,12 @@ def main(argv: list[str] | None = None) -> None:
     study = path_study(args)
     print_fits(study)
     plot_path(study, args.out)
-    explanation = notes(study)
+    scan = slope_scan(args.scan_spacing)
+    explanation = notes(study, scan)
     print("\nNotes:\n- " + "\n- ".join(explanation))
+    res = resolution_study(study)
+    print_resolution(res)
+    plot_resolution(res, args.out)
     som = [] if args.no_som else som_study(args, study["w"])
     plot_fit(study, som, args.out)
     P = study["P"]
@@ -317,7 +492,10 @@ def main(argv: list[str] | None = None) -> None:
         "fits": study["fits"],
         "paper": {"b": B.PAPER_B, "C": B.PAPER_C},
         "V_A_rad_per_m": study["V_A"],
+        "S_A_rad_per_m": study["S_A"],
         "b_range_on_path": list(study["b_range"]),
+        "slope_scan": scan,
+        "appendix_B": res,
         "notes": explanation,
         "som": som,
     }

@@ -82,6 +82,16 @@ def test_linear_approximation_error_falls_as_n_to_the_minus_two():
     assert e[0] / e[1] == pytest.approx(100, rel=0.02)
 
 
+def test_slope_scan_fits_the_same_slope_as_the_path_study():
+    points, b, C = B.slope_scan(spacing=0.2)
+    n = np.array(B.SCAN_N, dtype=float)
+    i = len(points) // 2
+    e = [B.border_errors(points[i : i + 1], B.BRAUSE_EDGE / k)[0].max() for k in n]
+    slope, intercept = np.polyfit(np.log10(n), np.log10(e), 1)
+    assert b[i] == pytest.approx(slope, rel=1e-9) and C[i] == pytest.approx(10**intercept)
+    assert np.all(B.exact_joints(points)[1])
+
+
 def test_unreachable_cells_have_no_error():
     far = np.array([[0.0, 0.86, 0.0]])  # wrist centre at the edge of reach
     joint, cart = B.border_errors(far, 0.2)
@@ -127,10 +137,15 @@ def test_script_writes_the_table_and_a_fit_near_minus_two(tmp_path):
     )
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
-    script.main(["--out", str(tmp_path), "--no-som", "--points", "81"])
+    script.main(["--out", str(tmp_path), "--no-som", "--points", "81", "--scan-spacing", "0.15"])
     result = json.loads((tmp_path / "brause.json").read_text())
     for row in result["table_6a"]:
         assert row["elements"] == pytest.approx(PRINTED[row["n"]][0], rel=3e-3)
     assert result["fits"]["joint [rad]"]["b"] == pytest.approx(-2.0, abs=0.05)
-    for name in ("fig5f_joints", "fig5g_joint_error", "fig5h_cartesian_error", "fig5i_fit"):
+    scan = result["slope_scan"]
+    assert scan["points"] > 100 and -2.3 < scan["b_min"] <= scan["b_max"] < -1.9
+    published = result["appendix_B"]["paper (b, C), g as published"]["at_r_w_17"]
+    assert round(published["n"], 1) == 39.6 and round(published["r_equal"], 1) == 16.4
+    figures = ("fig5f_joints", "fig5g_joint_error", "fig5h_cartesian_error", "fig5i_fit")
+    for name in (*figures, "fig6_2_storage_error", "figB_1_optimal_resolution"):
         assert (tmp_path / f"{name}.png").stat().st_size > 0

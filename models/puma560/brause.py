@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from models.puma560 import WORKSPACE_BASE_LOWER, WORKSPACE_BASE_UPPER
-from models.puma560.kinematics import DH, wrist_center, wrist_ik
+from models.puma560.kinematics import ARM_REACH, DH, wrist_center, wrist_ik
 
 #: The path of Figs. 5e-5h here: the main diagonal of this project's PUMA target box (frame 0, m),
 #: (-0.25, 0.35, -0.30) -> (0.25, 0.75, 0.30), 0.877 m long. His START and END are only drawn
@@ -170,3 +170,27 @@ def map_errors(commands: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np
     joint = np.abs(np.angle(np.exp(1j * (commands - exact))))
     cart = np.linalg.norm(points - wrist_center(commands), axis=-1)
     return np.where(ok[:, None], joint, np.nan), np.where(ok, cart, np.nan)
+
+
+#: Spacing of the slope scan's points (m) over the cube [-ARM_REACH, ARM_REACH]³ of frame 0.
+SCAN_SPACING = 0.05
+#: n of the slope scan: his range, 10 ... 1000.
+SCAN_N = tuple(k for k in N_VALUES if k >= 10)
+
+
+def slope_scan(spacing: float = SCAN_SPACING, edge: float = BRAUSE_EDGE) -> tuple[np.ndarray, ...]:
+    """The fit (5.7) at every point of a regular grid over the reach cube whose cells of edge
+    edge/n (every n of :data:`SCAN_N`) lie in the reachable region (right-above, joints in
+    range): Brause's P is not published, so this asks where a P with his b could lie.
+
+    Returns:
+        points (K, 3) m frame 0, slopes b (K,), C (K,) rad.
+    """
+    axis = np.arange(-ARM_REACH, ARM_REACH + 1e-9, spacing)
+    points = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), -1).reshape(-1, 3)
+    points = points[exact_joints(points)[1]]
+    n = np.array(SCAN_N, dtype=float)
+    errors = np.array([border_errors(points, edge / k)[0].max(axis=1) for k in n])  # (n, K)
+    ok = np.all(np.isfinite(errors) & (errors > 0), axis=0)
+    b, a = np.polyfit(np.log10(n), np.log10(errors[:, ok]), 1)
+    return points[ok], b, 10.0**a
