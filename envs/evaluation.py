@@ -47,6 +47,7 @@ class _TimedController(Controller):
 
     def __init__(self, inner: Controller) -> None:
         self.inner, self.seconds, self.calls = inner, 0.0, 0
+        self.protocol = getattr(inner, "protocol", "mrs")  # for run_trial
 
     def act(self, u, v=None):
         start = time.perf_counter()

@@ -36,6 +36,7 @@ class RunConfig:
     trials: int = 10_000
     lattice: tuple[int, ...] = (12, 7, 4)
     rule: str = "mrs"
+    protocol: str = "mrs"  # or "brause": Brause's coarse move, fine move (3.7), learning
     keep_arm: bool = False
     eval_every: int = 1000
     eval_trials: int = 200
@@ -61,6 +62,7 @@ def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
         base.joint_upper,
         lattice=config.lattice,
         rule=config.rule,
+        protocol=config.protocol,
         t_max=config.trials,
         rng=rng,
         input_low=pixels.min(axis=0),

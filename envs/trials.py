@@ -3,6 +3,9 @@
 This is the loop of Ritter, Martinetz & Schulten: the cameras see the target at u; the controller
 gives θ0; after the move the cameras see the marker at v0; the controller corrects to θ1 from v0;
 the cameras see v1; and so on. A learner learns from (u, θ0, v0, θ1, v1).
+
+Brause's protocol (§3, ``protocol="brause"``) senses the same positions (x = u, x_I = v0,
+x_F = v1), but his fine move (3.7) does not use x_I: a trial goes on when a marker is not seen.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ def run_trial(
     keep_arm: bool = False,
     on_move: FrameHook | None = None,
     explore: bool = False,
+    protocol: str | None = None,
 ) -> Trial:
     """Reset ``env`` (a new target) and make one coarse and ``fine_moves`` fine moves.
 
@@ -54,10 +58,15 @@ def run_trial(
             (for videos).
         explore: ask a learner for exploratory fine moves (training only; see
             ``VisuomotorSOM.act``).
+        protocol: "mrs" or "brause"; None: the controller's ``protocol`` attribute, else "mrs".
     Returns:
-        the :class:`Trial`. If a marker is not visible, sensed pixels are NaN and the trial stops
-        (a controller cannot correct from a position it did not see).
+        the :class:`Trial`. If a marker is not visible, sensed pixels are NaN; under "mrs" the
+        trial stops there (a controller cannot correct from a position it did not see), under
+        "brause" it goes on (the fine command (3.7) does not depend on what was sensed).
     """
+    protocol = getattr(controller, "protocol", "mrs") if protocol is None else protocol
+    if protocol not in ("mrs", "brause"):
+        raise ValueError(f"unknown protocol {protocol!r}; valid: mrs, brause")
     _, info = env.reset(options={"keep_arm": keep_arm})
     base = env.unwrapped
     trial = Trial(
@@ -85,7 +94,7 @@ def run_trial(
         trial.reached.append(info["effector_pos"])
         if on_move is not None:
             on_move(k, trial)
-        if not np.all(np.isfinite(sensed)):
+        if protocol == "mrs" and not np.all(np.isfinite(sensed)):
             break
     return trial
 

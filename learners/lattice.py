@@ -68,3 +68,10 @@ class Lattice:
         d2 = np.empty((len(winners), len(self.coords)))
         np.put_along_axis(d2, self._order[winners], self._d2_sorted[winners], axis=1)
         return d2
+
+    def within(self, s: int, radius: float) -> np.ndarray:
+        """Brause's step neighbourhood (3.2): the neurons k with |y_k − y_s| ≤ ``radius``
+        (lattice units), nearest first; each has h = 1, all others h = 0. ``radius`` < 1 leaves
+        the winner alone."""
+        r2 = min(math.floor(radius * radius), self._d2_max)  # squared distances are integers
+        return self._order[s, : self._count[s, r2]]

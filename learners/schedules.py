@@ -1,11 +1,12 @@
-"""Exponentially decaying training parameters of the Kohonen map (learning rates, widths).
+"""Decaying training parameters of the Kohonen map (learning rates, widths).
 
 Ritter, Martinetz & Schulten (1989, 1990) let every parameter x fall geometrically from x_i to
 x_f over the t_max training steps:
 
     x(t) = x_i (x_f / x_i)^(t / t_max)
 
-Beyond t_max the value stays at x_f (the rule would otherwise keep shrinking it).
+Beyond t_max the value stays at x_f (the rule would otherwise keep shrinking it): a floor, unlike
+Brause's (3.3), whose γ → 0; :func:`harmonic` is a rate that satisfies (3.3).
 """
 
 from __future__ import annotations
@@ -49,3 +50,18 @@ class Schedule:
             return cls(float(value), float(value))
         initial, final = value
         return cls(float(initial), float(final))
+
+
+def harmonic(initial: float, final: float, t: int, t_max: int) -> float:
+    """Brause's learning rate (3.3): γ(t) = γ_i / (1 + t/τ) with τ = t_max / (γ_i/γ_f − 1), so
+    γ(0) = γ_i and γ(t_max) = γ_f, and then on towards 0 without a floor (lim γ = 0, Σγ = ∞,
+    Σγ² < ∞, the three conditions of (3.3)). γ_i = γ_f gives a constant rate.
+
+    Args:
+        initial, final: γ_i ≥ γ_f > 0. t: trials learned so far. t_max: trials of the run.
+    """
+    if not initial >= final > 0.0:
+        raise ValueError(f"harmonic rate needs initial >= final > 0, got {initial}, {final}")
+    if initial == final:
+        return initial
+    return initial / (1.0 + t * (initial / final - 1.0) / t_max)

@@ -15,7 +15,8 @@ Moving (``act``):
              Broyden update); ``refine=False`` keeps Ā fixed as MRS do.
 
 Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δv = v1 − v0:
-    w_r += ε h_rs (u − w_r),    h_rs = exp(−|r − s|² / 2σ²)                   (Brause 3.2, 3.5)
+    w_r += ε h_rs (u − w_r),    h_rs = exp(−|r − s|² / 2σ²)     (Brause 3.5 with the Gaussian
+                                  neighbourhood of Ritter, Martinetz & Schulten, his [RITT3])
     θ_r += ε' h'_rs (θ* − θ_r),  A_r += ε' h'_rs (A* − A_r),  h' of width σ'  (Brause 3.6, 3.8)
     A* = A_s + (Δθ − A_s Δv) Δv^T / |Δv|²                     (Widrow-Hoff; MRS; Brause 3.10)
     rule "mrs":    θ* = θ_s + A_s (u − v0)    error sensed after the coarse move (MRS 1989/90)
@@ -32,6 +33,25 @@ A_c + A_c((x − x_F) − (w_c − x_I))(x_F − x_I)^T / |x_F − x_I|², since
 makes the bracket the Widrow-Hoff residual. The forms above use the commands actually sent, so
 they also hold for the coarse move with its linear term used here; ``tests/test_som.py``
 checks them against the printed equations for Brause's protocol.
+
+Protocols. ``protocol="mrs"`` is everything above. ``protocol="brause"`` is Brause's own loop
+(§3), paper-faithful, with none of this project's additions:
+    coarse   Θ_c of the winner c alone (no linear term, no averaging)
+    fine     Θ_c + A_c (x − w_c)                                                    (3.7)
+             it does not use the position x_I sensed after the coarse move (x_I only enters
+             learning), so every fine move gives the same command and no ``refine``, no
+             exploration noise
+    learning Θ* = Θ_c + A_c (x − x_F)                                               (3.9)
+             A* = A_c + A_c((x − x_F) − (w_c − x_I)) (x_F − x_I)^T / |x_F − x_I|²  (3.10)
+             w_k += γ h (x − w_k), Θ_k += γ h (Θ* − Θ_k), A_k += γ h (A* − A_k)   (3.5, 3.8)
+             one γ and one h for w, Θ and A (his (3.8) uses "the neighbourhood function h"
+             of (3.2)); h is his step (3.2): 1 for |y_k − y_c| ≤ σ(t), else 0 (σ, the
+             "step-width", from the ``sigma`` schedule); γ(t) = ``schedules.harmonic`` of the
+             ``eps`` schedule's (initial, final), which satisfies (3.3) (γ → 0, no floor).
+    Reading: (3.8) writes u_c only; as in (3.6) every neuron k of N_c moves towards the winner's
+    estimate u*_c. Kept from this project: commands and Θ_k clipped into the joint ranges, trials
+    with |Δv| < ``min_dv`` skipped (the division in 3.10). ``rule``, ``averaging``, ``refine``,
+    ``eps_out``, ``sigma_out`` and ``explore`` have no effect under this protocol.
 
 Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range of Ā, so the
 Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine
@@ -50,9 +70,11 @@ import numpy as np
 from learners.base import Controller, check_pixels
 from learners.lattice import Lattice
 from learners.persistence import CheckpointError, load_npz, save_npz
-from learners.schedules import Schedule
+from learners.schedules import Schedule, harmonic
 
 RULES = ("mrs", "brause")
+#: Trial protocols (see the module docstring): MRS with this project's additions, or Brause §3.
+PROTOCOLS = ("mrs", "brause")
 AVERAGING = ("neighbourhood", "winner")
 KIND = "VisuomotorSOM"
 FORMAT_VERSION = 1
@@ -118,6 +140,8 @@ class VisuomotorSOM(Controller):
         a_init: std of the random start of A_r, as a fraction of mean joint span / mean input
             span (0 = start at A = 0; training then relies on ``explore``).
         min_dv: trials with |v1 − v0| below this are skipped (input units).
+        protocol: "mrs" or "brause" (Brause's own coarse move, fine move (3.7) and learning
+            (3.9)/(3.10) with the step neighbourhood; see the module docstring).
     """
 
     def __init__(
@@ -141,7 +165,11 @@ class VisuomotorSOM(Controller):
         theta_init: np.ndarray | None = None,
         a_init: float = DEFAULT_A_INIT,
         min_dv: float = DEFAULT_MIN_DV,
+        protocol: str = "mrs",
     ) -> None:
+        if protocol not in PROTOCOLS:
+            raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
+        self.protocol = protocol
         if rule not in RULES:
             raise ValueError(f"unknown rule {rule!r}; valid rules: {', '.join(RULES)}")
         if averaging not in AVERAGING:
@@ -166,6 +194,8 @@ class VisuomotorSOM(Controller):
         self.eps, self.sigma = Schedule.of(eps), Schedule.of(sigma)
         self.eps_out, self.sigma_out = Schedule.of(eps_out), Schedule.of(sigma_out)
         self.explore = Schedule.of(explore)
+        if protocol == "brause":
+            harmonic(self.eps.initial, self.eps.final, 0, self.t_max)  # raises for a bad eps
         self.min_dv, self.a_init = float(min_dv), float(a_init)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         D, J = self.input_dim, self.n_joints
@@ -307,6 +337,8 @@ class VisuomotorSOM(Controller):
             ValueError: u or v of the wrong shape or not finite, or a fine move without a coarse
                 one since the last ``reset()``; the map and its memory are then unchanged.
         """
+        if self.protocol == "brause":
+            return self._act_brause(u, v)
         u = self._vector("u", u)
         if v is None:
             theta, self._abar = self._coarse(u)
@@ -330,6 +362,17 @@ class VisuomotorSOM(Controller):
         self._cmd = self._clip(theta)
         return self._cmd.copy()
 
+    def _act_brause(self, u: np.ndarray, v: np.ndarray | None) -> np.ndarray:
+        """Brause §3: coarse Θ_c, fine Θ_c + A_c (u − w_c) (3.7); v is not used (may be NaN)."""
+        u = self._vector("u", u)
+        if v is not None and self._cmd is None:
+            raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
+        s = self._winner(u)
+        self._last_winner = (u.tobytes(), self._version, s)
+        theta = self._th[s] if v is None else self._th[s] + self._A[s] @ (u - self._w[s])
+        self._cmd = self._clip(theta)
+        return self._cmd.copy()
+
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (M, D) -> (M, J), the same as ``act`` row by row.
 
@@ -348,6 +391,8 @@ class VisuomotorSOM(Controller):
     def _coarse_batch(self, U: np.ndarray) -> np.ndarray:
         M, (N, J, D) = len(U), self._A.shape
         s = (self._w2[None, :] - 2.0 * (U @ self._w.T)).argmin(1)  # (M,)
+        if self.protocol == "brause":
+            return self._clip(self._th[s])
         sigma = self.params()[3]
         r2 = self._grid.cutoff_radius2(sigma)
         if self.averaging == "winner" or r2 < 1:  # the winner alone
@@ -407,6 +452,10 @@ class VisuomotorSOM(Controller):
         else:
             s = self._winner(u)
         self._version += 1
+        if self.protocol == "brause":
+            self._learn_brause(s, u, v0, v1, dv / dv2)
+            self.t += 1
+            return True
         a_s = self._A[s]  # (J, D), read before any update
         if self.rule == "mrs":
             theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
@@ -444,6 +493,24 @@ class VisuomotorSOM(Controller):
         if not isinstance(idx, slice):
             self._A[idx] = a_k
 
+    def _learn_brause(
+        self, s: int, x: np.ndarray, x_i: np.ndarray, x_f: np.ndarray, dv_n: np.ndarray
+    ) -> None:
+        """(3.9), (3.10) as printed, then one γ and the step neighbourhood (3.2) for w, Θ, A.
+
+        Args:
+            dv_n: (x_F − x_I) / |x_F − x_I|², (D,).
+        """
+        theta_c, a_c, w_c = self._th[s], self._A[s], self._w[s].copy()  # before any update
+        theta_star = theta_c + a_c @ (x - x_f)  # (3.9), (J,)
+        a_star = a_c + np.multiply.outer(a_c @ ((x - x_f) - (w_c - x_i)), dv_n)  # (3.10), (J, D)
+        gamma = harmonic(self.eps.initial, self.eps.final, self.t, self.t_max)
+        k = self._grid.within(s, self.params()[1])  # (K,) neurons with h = 1
+        self._w[k] += gamma * (x - self._w[k])
+        self._w2[k] = np.einsum("kd,kd->k", self._w[k], self._w[k])
+        self._th[k] = self._clip(self._th[k] + gamma * (theta_star - self._th[k]))
+        self._A[k] += gamma * (a_star - self._A[k])
+
     # ----------------------------------------------------------------------------- persistence
     _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before")
 
@@ -464,6 +531,7 @@ class VisuomotorSOM(Controller):
             },
             "a_init": self.a_init,
             "min_dv": self.min_dv,
+            "protocol": self.protocol,
             "t": self.t,
             "skipped": dict(self.skipped),
             "rng_state": self.rng.bit_generator.state,
@@ -507,6 +575,7 @@ class VisuomotorSOM(Controller):
                 input_high=arrays["input_high"],
                 a_init=config["a_init"],
                 min_dv=config["min_dv"],
+                protocol=config.get("protocol", "mrs"),  # files from before the option: MRS
                 **{k: tuple(v) for k, v in config["schedules"].items()},
             )
             for name in ("w", "theta", "A"):

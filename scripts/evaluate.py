@@ -43,6 +43,16 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--seed", type=int, default=DEFAULT_SEED)
     p.add_argument("--out", type=Path, help="default: RUN/eval or runs/eval")
     p.add_argument("--no-plots", action="store_true")
+    p.add_argument(
+        "--protocol",
+        choices=("mrs", "brause"),
+        help="how a SOM moves (default: the protocol it was trained with)",
+    )
+    p.add_argument(
+        "--no-refine",
+        action="store_true",
+        help="SOM fine moves without the Broyden step (as MRS publish it)",
+    )
     args = p.parse_args(argv)
     if (args.run is None) == (args.controller is None):
         p.error("give either --run DIR or --controller SPEC")
@@ -60,9 +70,15 @@ def main(argv: list[str] | None = None) -> dict:
     rows, results = [], {}
     for spec in specs:
         controller = make_controller(spec, env, args.seed)
+        if isinstance(controller, VisuomotorSOM):
+            controller.protocol = args.protocol or controller.protocol
+            controller.refine = controller.refine and not args.no_refine
         env.reset(seed=args.seed)  # the same held-out targets for every controller
         result = evaluate(env, controller, args.targets, args.fine_moves)
-        name = "som" if spec.endswith(".npz") else spec
+        name = spec
+        if isinstance(controller, VisuomotorSOM):
+            refine = "+refine" if controller.refine and controller.protocol == "mrs" else ""
+            name = f"som {controller.protocol}{refine}"
         results[name] = result
         rows.append({"controller": name, **result.summary()})
     print(
@@ -76,7 +92,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     first = specs[0]
     if not args.no_plots and first.endswith(".npz"):
-        write_plots(env, VisuomotorSOM.load(first), results["som"], args.run, out)
+        write_plots(env, VisuomotorSOM.load(first), results[rows[0]["controller"]], args.run, out)
         print(f"plots in {out}")
     env.close()
     return summary
@@ -85,11 +101,11 @@ def main(argv: list[str] | None = None) -> dict:
 def format_table(rows: list[dict]) -> str:
     moves = len(rows[0]["mean_mm"])
     names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
-    head = f"{'controller':<12}" + "".join(f"{n + ' [mm]':>14}" for n in names)
+    head = f"{'controller':<18}" + "".join(f"{n + ' [mm]':>14}" for n in names)
     head += f"{'last [% reach]':>16}{'last [px]':>11}{'us/query':>10}{'complete':>10}"
     lines = [head, "-" * len(head)]
     for r in rows:
-        line = f"{r['controller']:<12}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
+        line = f"{r['controller']:<18}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
         line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
         line += f"{r['microseconds_per_query']:>10.1f}{r['complete_trials']:>10d}"
         lines.append(line)

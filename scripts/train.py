@@ -40,6 +40,13 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--seed", type=int, default=d.seed)
     p.add_argument("--lattice", type=parse_lattice, default=d.lattice, help="e.g. 12,7,4")
     p.add_argument("--rule", default=d.rule, choices=("mrs", "brause"))
+    p.add_argument(
+        "--protocol",
+        default=d.protocol,
+        choices=("mrs", "brause"),
+        help="mrs: MRS loop with this project's additions; brause: Brause's own (coarse Θ_c, "
+        "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
+    )
     p.add_argument("--sensing", default=d.sensing, choices=("render", "project"))
     p.add_argument("--control", default=d.control, choices=("servo", "kinematic"))
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
@@ -56,6 +63,7 @@ def main(argv: list[str] | None = None) -> Path:
         config = RunConfig(
             env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
             trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
+            protocol=args.protocol,
             eval_every=args.eval_every, eval_trials=args.eval_trials,
         )  # fmt: skip
         trainer = Trainer(config, args.out)
