@@ -46,12 +46,17 @@ Protocols. ``protocol="mrs"`` is everything above. ``protocol="brause"`` is Brau
              w_k += γ h (x − w_k), Θ_k += γ h (Θ* − Θ_k), A_k += γ h (A* − A_k)   (3.5, 3.8)
              one γ and one h for w, Θ and A (his (3.8) uses "the neighbourhood function h"
              of (3.2)); h is his step (3.2): 1 for |y_k − y_c| ≤ σ(t), else 0 (σ, the
-             "step-width", from the ``sigma`` schedule); γ(t) = ``schedules.harmonic`` of the
-             ``eps`` schedule's (initial, final), which satisfies (3.3) (γ → 0, no floor).
-    Reading: (3.8) writes u_c only; as in (3.6) every neuron k of N_c moves towards the winner's
-    estimate u*_c. Kept from this project: commands and Θ_k clipped into the joint ranges, trials
-    with |Δv| < ``min_dv`` skipped (the division in 3.10). ``rule``, ``averaging``, ``refine``,
-    ``eps_out``, ``sigma_out`` and ``explore`` have no effect under this protocol.
+             "step-width", from the ``sigma`` schedule); γ(t) = ``schedules.harmonic`` from
+             ``gamma.initial`` to ``gamma.final``, which satisfies (3.3) (γ → 0, no floor).
+    Readings: (3.8) writes u_c only; as in (3.6) every neuron k of N_c moves towards the
+    winner's estimate u*_c. (3.9)/(3.10) assume the fine command Θ_c + A_c(x − w_c) was made;
+    they are computed in the equivalent forms of the commands actually sent, Θ* = θ1 + A_c(w_c −
+    x_F) and A* = A_c + (Δθ − A_c Δv) Δv^T/|Δv|² (the "brause" rule below), which equal the
+    printed ones unless a command was clipped at a joint limit (then the printed forms teach A_c
+    a move the arm did not make: 8 % of RIACS and 15 % of PUMA training trials early on).
+    Kept from this project: commands and Θ_k clipped into the joint ranges, trials with
+    |Δv| < ``min_dv`` skipped (the division in 3.10). ``rule``, ``averaging``, ``refine``,
+    ``eps``, ``eps_out``, ``sigma_out`` and ``explore`` have no effect under this protocol.
 
 Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range of Ā, so the
 Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine
@@ -92,6 +97,10 @@ DEFAULT_EPS_OUT = Schedule(0.9, 0.1)
 DEFAULT_SIGMA_OUT = Schedule(2.5, 0.01)
 #: Exploration std of training fine moves, rad (this project's choice; see module notes).
 DEFAULT_EXPLORE = Schedule(0.05, 0.005)
+#: Brause's single rate γ (protocol "brause"), harmonic from 1 to 0.1 at t_max (this project's
+#: choice; he gives no values): 1 -> 0.005 leaves Θ and A of 336 neurons unlearned after 10 000
+#: trials (RIACS, projected: 163 mm after the fine move; 1 -> 0.1: see README).
+DEFAULT_GAMMA = Schedule(1.0, 0.1)
 DEFAULT_T_MAX = 10_000
 #: Trials with |Δv| below this (input units, e.g. pixels) are skipped: the Widrow-Hoff step
 #: divides by |Δv|², and a sensed displacement this small is below any detector's resolution.
@@ -140,6 +149,8 @@ class VisuomotorSOM(Controller):
         a_init: std of the random start of A_r, as a fraction of mean joint span / mean input
             span (0 = start at A = 0; training then relies on ``explore``).
         min_dv: trials with |v1 − v0| below this are skipped (input units).
+        gamma: Brause's single rate for w, Θ and A under protocol "brause" (harmonic from
+            initial to final, see :func:`learners.schedules.harmonic`).
         protocol: "mrs" or "brause" (Brause's own coarse move, fine move (3.7) and learning
             (3.9)/(3.10) with the step neighbourhood; see the module docstring).
     """
@@ -166,6 +177,7 @@ class VisuomotorSOM(Controller):
         a_init: float = DEFAULT_A_INIT,
         min_dv: float = DEFAULT_MIN_DV,
         protocol: str = "mrs",
+        gamma: ScheduleLike = DEFAULT_GAMMA,
     ) -> None:
         if protocol not in PROTOCOLS:
             raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
@@ -194,8 +206,8 @@ class VisuomotorSOM(Controller):
         self.eps, self.sigma = Schedule.of(eps), Schedule.of(sigma)
         self.eps_out, self.sigma_out = Schedule.of(eps_out), Schedule.of(sigma_out)
         self.explore = Schedule.of(explore)
-        if protocol == "brause":
-            harmonic(self.eps.initial, self.eps.final, 0, self.t_max)  # raises for a bad eps
+        self.gamma = Schedule.of(gamma)
+        harmonic(self.gamma.initial, self.gamma.final, 0, self.t_max)  # raises for a bad gamma
         self.min_dv, self.a_init = float(min_dv), float(a_init)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         D, J = self.input_dim, self.n_joints
@@ -453,7 +465,7 @@ class VisuomotorSOM(Controller):
             s = self._winner(u)
         self._version += 1
         if self.protocol == "brause":
-            self._learn_brause(s, u, v0, v1, dv / dv2)
+            self._learn_brause(s, u, theta0, theta1, v0, v1, dv / dv2)
             self.t += 1
             return True
         a_s = self._A[s]  # (J, D), read before any update
@@ -494,17 +506,25 @@ class VisuomotorSOM(Controller):
             self._A[idx] = a_k
 
     def _learn_brause(
-        self, s: int, x: np.ndarray, x_i: np.ndarray, x_f: np.ndarray, dv_n: np.ndarray
+        self,
+        s: int,
+        x: np.ndarray,
+        theta0: np.ndarray,
+        theta1: np.ndarray,
+        x_i: np.ndarray,
+        x_f: np.ndarray,
+        dv_n: np.ndarray,
     ) -> None:
-        """(3.9), (3.10) as printed, then one γ and the step neighbourhood (3.2) for w, Θ, A.
+        """(3.9), (3.10) in the forms of the commands sent, then one γ and the step
+        neighbourhood (3.2) for w, Θ and A.
 
         Args:
             dv_n: (x_F − x_I) / |x_F − x_I|², (D,).
         """
-        theta_c, a_c, w_c = self._th[s], self._A[s], self._w[s].copy()  # before any update
-        theta_star = theta_c + a_c @ (x - x_f)  # (3.9), (J,)
-        a_star = a_c + np.multiply.outer(a_c @ ((x - x_f) - (w_c - x_i)), dv_n)  # (3.10), (J, D)
-        gamma = harmonic(self.eps.initial, self.eps.final, self.t, self.t_max)
+        a_c, w_c = self._A[s], self._w[s].copy()  # before any update
+        theta_star = theta1 + a_c @ (w_c - x_f)  # (3.9), (J,)
+        a_star = a_c + np.multiply.outer((theta1 - theta0) - a_c @ (x_f - x_i), dv_n)  # (3.10)
+        gamma = harmonic(self.gamma.initial, self.gamma.final, self.t, self.t_max)
         k = self._grid.within(s, self.params()[1])  # (K,) neurons with h = 1
         self._w[k] += gamma * (x - self._w[k])
         self._w2[k] = np.einsum("kd,kd->k", self._w[k], self._w[k])
@@ -527,7 +547,7 @@ class VisuomotorSOM(Controller):
             "t_max": self.t_max,
             "schedules": {
                 k: [getattr(self, k).initial, getattr(self, k).final]
-                for k in ("eps", "sigma", "eps_out", "sigma_out", "explore")
+                for k in ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma")
             },
             "a_init": self.a_init,
             "min_dv": self.min_dv,

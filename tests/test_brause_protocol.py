@@ -43,11 +43,11 @@ def test_fine_command_is_3_7_whatever_was_sensed():
 
 def test_one_learning_step_is_3_9_and_3_10_as_printed():
     radius, t_max = 1.0, 100
-    som = small_map(sigma=radius, eps=(0.5, 0.05), t_max=t_max)
+    som = small_map(sigma=radius, gamma=(0.5, 0.05), t_max=t_max)
     x, x_i, x_f = np.array([1.2, 0.1]), np.array([1.0, 0.3]), np.array([1.15, 0.12])
     c = 2  # winner at lattice (1, 0)
     w, th, A = som.w.copy(), som.theta.copy(), som.A.copy()
-    theta0, theta1 = th[c], th[c] + A[c] @ (x - w[c])
+    theta0, theta1 = th[c].copy(), th[c] + A[c] @ (x - w[c])  # the commands of his protocol
     theta_star = th[c] + A[c] @ (x - x_f)  # (3.9)
     d = x_f - x_i
     A_star = A[c] + np.outer(A[c] @ ((x - x_f) - (w[c] - x_i)), d) / (d @ d)  # (3.10)
@@ -68,7 +68,7 @@ def test_one_learning_step_is_3_9_and_3_10_as_printed():
 
 def test_3_10_is_the_widrow_hoff_step_of_the_commands_sent():
     # With θ1 − θ0 = A_c (x − w_c), (3.10) makes A* (x_F − x_I) = θ1 − θ0 exactly.
-    som = small_map(eps=(1.0, 0.5), sigma=0.5)
+    som = small_map(gamma=(1.0, 0.5), sigma=0.5)
     x, x_i, x_f = np.array([1.2, 0.1]), np.array([1.0, 0.3]), np.array([1.4, -0.2])
     theta0 = som.act(x)
     theta1 = som.act(x, x_i)
@@ -92,7 +92,7 @@ def test_harmonic_rate_satisfies_3_3_and_meets_the_schedule_ends():
     g = np.array([harmonic(1.0, 0.005, k, 1000) for k in t])
     assert np.all(np.diff(g) < 0) and g[-1] < 1e-5  # no floor: γ → 0 like 1/t
     with pytest.raises(ValueError, match="initial >= final"):
-        VisuomotorSOM(LOW, HIGH, lattice=(3, 2), input_dim=2, protocol="brause", eps=(0.1, 0.2))
+        VisuomotorSOM(LOW, HIGH, lattice=(3, 2), input_dim=2, protocol="brause", gamma=(0.1, 0.2))
 
 
 def test_unknown_protocol_names_the_valid_ones():
@@ -138,3 +138,14 @@ def test_brause_trials_go_on_when_a_marker_is_not_seen_mrs_trials_stop():
     assert som.skipped["not_visible"] == 1
     som.protocol = "mrs"
     assert len(run_trial(_BlindEnv(), som, fine_moves=2).commands) == 1
+
+
+def test_a_clipped_fine_command_is_learned_as_sent():
+    # The joint range stops the fine command: A* must map the sensed move onto the move made.
+    som = small_map(gamma=(1.0, 0.5), sigma=0.5)
+    som.A = som.A * 20  # fine move far beyond the ±3 rad range
+    x, x_i, x_f = np.array([1.2, 0.1]), np.array([1.0, 0.3]), np.array([1.4, -0.2])
+    theta0, theta1 = som.act(x), som.act(x, x_i)
+    assert np.any(np.abs(theta1) == 3.0)  # clipped
+    som.learn(x, theta0, x_i, theta1, x_f)
+    np.testing.assert_allclose(som.A[2] @ (x_f - x_i), theta1 - theta0, atol=1e-13)

@@ -194,3 +194,13 @@ def slope_scan(spacing: float = SCAN_SPACING, edge: float = BRAUSE_EDGE) -> tupl
     ok = np.all(np.isfinite(errors) & (errors > 0), axis=0)
     b, a = np.polyfit(np.log10(n), np.log10(errors[:, ok]), 1)
     return points[ok], b, 10.0**a
+
+
+def linear_map(w: np.ndarray, theta: np.ndarray, A: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(3.7) of a map's winner for points x (M, 3): Θ_c + A_c (x − w_c), c = argmin |x − w_k|.
+
+    Args:
+        w (N, 3), theta (N, J), A (N, J, 3): a map's arrays. Returns (M, J), rad.
+    """
+    c = np.argmin(((x[:, None, :] - w[None]) ** 2).sum(-1), axis=1)  # (M,)
+    return theta[c] + np.einsum("mjd,md->mj", A[c], x - w[c])
