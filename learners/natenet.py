@@ -23,7 +23,9 @@ output-space error (the smallest change of M that makes the observed moves right
 
 * allocate when M_e > T_e(s) = (T0 - e_f)·exp(-s/τ) + e_f and max_i a_i(x) < T_a (and fewer than
   ``max_nodes`` nodes): centre x_N = x; width σ_N = λ·min_i ‖x_N - x_i‖ (``sigma_init`` for the
-  first node); every older width is reset, σ_i ← λ·min(σ_i/λ, ‖x_N - x_i‖); then Y_N is chosen so
+  first node until a second exists); every older width is reset to λ × its nearest-centre
+  distance, σ_i ← λ·min(σ_i/λ, ‖x_N - x_i‖) (the first node's σ_init is not a distance and is
+  replaced by λ‖x_2 - x_1‖); then Y_N is chosen so
   that the net is right at x: with the new widths, M(x) = (S + Y_N)/(A + 1) for S = Σ a_i Y_i,
   A = Σ a_i (a_N(x) = 1), and Y_N = (A + 1)·(M_old(x) + e) - S makes M(x) = M_old(x) + e;
 * otherwise the delta rule on every node: Y_i ← Y_i + η·a_i(x)·e / Σ_j a_j(x).
@@ -253,7 +255,9 @@ class NATEnet:
         else:
             dist = np.linalg.norm(self.centres - x, axis=-1)  # (N,)
             sigma = self.lam * dist.min()
-            self.widths = self.lam * np.minimum(self.widths / self.lam, dist)
+            # σ_i/λ is node i's nearest distance so far; the first node has none (σ_init).
+            nearest = self.widths / self.lam if self.n_nodes > 1 else np.full(1, np.inf)
+            self.widths = self.lam * np.minimum(nearest, dist)
         a = self.activities(x)  # (N,) with the reset widths
         S = np.tensordot(a, self.outputs, axes=(0, 0))  # (p, q)
         self.centres = np.vstack([self.centres, x])

@@ -90,6 +90,20 @@ def test_first_node_uses_sigma_init_and_reproduces_the_move():
     np.testing.assert_allclose(net.predict(np.array([5.0, 5.0])) @ DX, [0.1, 0.2])
 
 
+def test_every_width_is_lambda_times_the_nearest_centre_distance_first_node_included():
+    net = NATEnet(input_dim=2, output_shape=(2, 2))
+    assert net.learn(np.zeros(2), [0.1, 0.2], DX).allocated
+    x = np.array([1.0, 0.0])
+    assert net.learn(x, move_with_error(net, x, DX, 0.9), DX).allocated
+    np.testing.assert_allclose(net.widths, [0.87, 0.87])
+    for x in ([3.0, 0.0], [3.0, 2.5], [-2.0, 1.5]):
+        x = np.array(x)
+        assert net.learn(x, move_with_error(net, x, DX, 0.9), DX).allocated
+    gaps = np.linalg.norm(net.centres[:, None] - net.centres[None], axis=-1)  # (N, N)
+    np.fill_diagonal(gaps, np.inf)
+    np.testing.assert_allclose(net.widths, 0.87 * gaps.min(axis=1))
+
+
 def test_one_delta_rule_step_equals_hand_computation():
     net = two_node_net()
     x, dtheta = BUSY, np.array([0.7, -0.2])
