@@ -53,7 +53,8 @@ Protocols. ``protocol="mrs"`` is everything above. ``protocol="brause"`` is Brau
     they are computed in the equivalent forms of the commands actually sent, Θ* = θ1 + A_c(w_c −
     x_F) and A* = A_c + (Δθ − A_c Δv) Δv^T/|Δv|² (the "brause" rule below), which equal the
     printed ones unless a command was clipped at a joint limit (then the printed forms teach A_c
-    a move the arm did not make: 8 % of RIACS and 15 % of PUMA training trials early on).
+    a move the arm did not make: 8 % (RIACS) and 15 % (PUMA) of 4 000 projected training
+    trials with the printed forms).
     Kept from this project: commands and Θ_k clipped into the joint ranges, trials with
     |Δv| < ``min_dv`` skipped (the division in 3.10). ``rule``, ``averaging``, ``refine``,
     ``eps``, ``eps_out``, ``sigma_out`` and ``explore`` have no effect under this protocol.
