@@ -99,8 +99,8 @@ DEFAULT_SIGMA_OUT = Schedule(2.5, 0.01)
 #: Exploration std of training fine moves, rad (this project's choice; see module notes).
 DEFAULT_EXPLORE = Schedule(0.05, 0.005)
 #: Brause's single rate γ (protocol "brause"), harmonic from 1 to 0.1 at t_max (this project's
-#: choice; he gives no values): 1 -> 0.005 leaves Θ and A of 336 neurons unlearned after 10 000
-#: trials (RIACS, projected: 163 mm after the fine move; 1 -> 0.1: see README).
+#: choice; he gives no values). RIACS, projected, printed forms of (3.9)/(3.10): 1 -> 0.005 left
+#: 139 mm after the fine move after 10 000 trials, 1 -> 0.1 77 mm after 4 000.
 DEFAULT_GAMMA = Schedule(1.0, 0.1)
 DEFAULT_T_MAX = 10_000
 #: Trials with |Δv| below this (input units, e.g. pixels) are skipped: the Widrow-Hoff step
