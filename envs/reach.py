@@ -11,8 +11,9 @@ import numpy as np
 
 from envs.composite import CompositeView
 from envs.markers import GREEN_EFFECTOR, RED_TARGET
+from envs.perturb import Perturbation, SceneEditor
 from envs.robots import ROBOTS, RobotSpec
-from envs.stereo import StereoRig
+from envs.stereo import CameraPair, StereoRig
 from models import load_model
 
 SENSING_MODES = ("render", "project")
@@ -69,6 +70,13 @@ class ReachEnv(gym.Env):
     ``reset`` draws a target uniformly from the robot's workspace with ``self.np_random`` and moves
     the mocap body there. The arm returns to the keyframe ``home`` unless
     ``reset(options={"keep_arm": True})`` leaves it where the last move put it.
+    ``reset(options={"perturb": change})`` first applies :meth:`perturb`.
+
+    ## Changes of the scene
+    ``perturb(change)`` moves, turns and zooms the cameras, moves the sensed point along the arm
+    and shifts the base at run time (:mod:`envs.perturb`); sensing, ``info`` and the rendered
+    views follow, ``stereo`` re-reads its cameras, and ``nominal_stereo`` keeps the cameras as
+    built (what the exact baselines triangulate with).
 
     ## Episode end
     Never terminates; truncated after ``max_episode_steps`` moves (registered default 4: one
@@ -149,6 +157,17 @@ class ReachEnv(gym.Env):
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
         mujoco.mj_forward(self.model, self.data)
         self.stereo = StereoRig(self.model, self.data, height, width)
+        self.nominal_stereo = CameraPair(self.stereo.cameras)  # the baselines' calibration
+        self._scene = SceneEditor(
+            self.model,
+            self.data,
+            robot,
+            self.spec_robot.sensed[joints],
+            self.spec_robot.markers[joints],
+            self.nominal_stereo,
+            (height, width),
+        )
+        self.perturbation = Perturbation()
         self._view = CompositeView(self.model, height, width)
 
         self.action_space = gym.spaces.Box(self.joint_lower, self.joint_upper, dtype=np.float64)
@@ -174,7 +193,10 @@ class ReachEnv(gym.Env):
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         super().reset(seed=seed)
         options = options or {}
+        if "perturb" in options:
+            self.perturb(options["perturb"])
         target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
+        target = target + self.perturbation.base_shift
         if options.get("keep_arm", False):
             self.data.qvel[:] = 0.0
         else:
@@ -210,6 +232,37 @@ class ReachEnv(gym.Env):
     def close(self) -> None:
         self.stereo.close()
         self._view.close()
+
+    def perturb(
+        self,
+        change: Perturbation | dict[str, Any] | None = None,
+        *,
+        random: dict[str, float] | None = None,
+        seed: int | None = None,
+    ) -> Perturbation:
+        """Change the scene between trials, relative to the nominal scene (see
+        :class:`envs.perturb.Perturbation`); ``nominal_stereo`` keeps the nominal cameras.
+
+        Args:
+            change: a Perturbation or a dict of its fields; None restores the nominal scene.
+            random: instead, sizes for :meth:`Perturbation.random` drawn with ``seed``.
+        Returns:
+            the change now in effect; the next reset senses a target in the changed scene.
+        Raises:
+            PerturbationError: a change that is not finite, too large, or takes the workspace
+                out of view; nothing has changed then.
+        """
+        if random is not None:
+            if change is not None:
+                raise ValueError("pass either a change or random sizes, not both")
+            change = Perturbation.random(np.random.default_rng(seed), **random)
+        change = Perturbation.of(change)
+        self._scene.check(change, self.spec_robot.workspace)
+        self._scene.apply(change)
+        mujoco.mj_forward(self.model, self.data)
+        self.stereo.refresh(self.data)
+        self.perturbation = change
+        return change
 
     def sensed_target(self) -> np.ndarray:
         """Target pixels (4,) sensed at the last reset; NaN in a camera that did not see it."""

@@ -90,30 +90,18 @@ class PinholeCamera:
         return np.pi * major * minor * self.focal[0] * self.focal[1]
 
 
-class StereoRig:
-    """The scene's two cameras (default ``cam_left``, ``cam_right``) at one image size.
+class CameraPair:
+    """Two pinhole cameras as they are now: exact projection and triangulation, no rendering.
 
-    Args:
-        model, data: a MuJoCo scene; camera poses are read from ``data`` (fixed cameras).
-        height, width: sensing image size in pixels.
+    A :class:`StereoRig` is a CameraPair that renders and follows its scene;
+    ``CameraPair(rig.cameras)`` keeps a rig's cameras as they were (the nominal calibration that
+    the exact baselines use, which goes stale when the scene changes).
     """
 
-    def __init__(
-        self,
-        model,
-        data,
-        height: int = 240,
-        width: int = 320,
-        cameras: Sequence[str] = ("cam_left", "cam_right"),
-    ) -> None:
+    def __init__(self, cameras: Sequence[PinholeCamera]) -> None:
         if len(cameras) != 2:
-            raise ValueError(f"a stereo rig needs two camera names, got {list(cameras)}")
-        self.model, self.height, self.width = model, height, width
-        self.camera_names = tuple(cameras)
-        self.cameras = tuple(
-            PinholeCamera.from_model(model, data, c, height, width) for c in cameras
-        )
-        self._renderer = CameraRenderer(model, height, width)
+            raise ValueError(f"a stereo pair needs two cameras, got {len(cameras)}")
+        self.cameras = tuple(cameras)
         # Both cameras' projections stacked, (4, 6): [p, 1] @ P = (d1 u1, d1 v1, d1, d2 u2, ...).
         self._projection = {
             n: np.vstack([c.projection_matrix(n) for c in self.cameras]).T for n in (False, True)
@@ -156,6 +144,38 @@ class StereoRig:
         MtM = np.einsum("nki,nkj->nij", M, M)
         Mtb = np.einsum("nki,nk->ni", M, b)
         return np.linalg.solve(MtM, Mtb[..., None])[..., 0]
+
+
+class StereoRig(CameraPair):
+    """The scene's two cameras (default ``cam_left``, ``cam_right``) at one image size.
+
+    Args:
+        model, data: a MuJoCo scene; camera poses are read from ``data`` (fixed cameras).
+        height, width: sensing image size in pixels.
+    """
+
+    def __init__(
+        self,
+        model,
+        data,
+        height: int = 240,
+        width: int = 320,
+        cameras: Sequence[str] = ("cam_left", "cam_right"),
+    ) -> None:
+        if len(cameras) != 2:
+            raise ValueError(f"a stereo rig needs two camera names, got {list(cameras)}")
+        self.model, self.height, self.width = model, height, width
+        self.camera_names = tuple(cameras)
+        self.refresh(data)
+        self._renderer = CameraRenderer(model, height, width)
+
+    def refresh(self, data) -> None:
+        """Re-read both cameras from the model and ``data`` (after ``mj_forward``): after a change
+        of camera pose or focal length, projection and triangulation follow the scene."""
+        h, w = self.height, self.width
+        super().__init__(
+            [PinholeCamera.from_model(self.model, data, c, h, w) for c in self.camera_names]
+        )
 
     def sense(
         self, data, marker: MarkerColour, radius: float | None = None

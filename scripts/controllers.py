@@ -13,18 +13,19 @@ SPECS = "random | analytic | jacobian | PATH.npz (a saved VisuomotorSOM)"
 
 
 def make_controller(spec: str, env, seed: int = 0) -> Controller:
-    """``spec``: one of ``SPECS``; ``env`` gives the joint ranges and the stereo rig."""
+    """``spec``: one of ``SPECS``; ``env`` gives the joint ranges and the nominal stereo rig (the
+    exact baselines keep that calibration when the scene is perturbed)."""
     base = env.unwrapped
     if spec == "random":
         return RandomController(base.joint_lower, base.joint_upper, np.random.default_rng(seed))
     if spec == "analytic":
         from learners.analytic_ik import AnalyticIK
 
-        return AnalyticIK.for_robot(base.stereo.triangulate, base.robot, joints=base.joints)
+        return AnalyticIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
     if spec == "jacobian":
         from learners.jacobian_ik import JacobianIK
 
-        return JacobianIK.for_robot(base.stereo.triangulate, base.robot, joints=base.joints)
+        return JacobianIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
     if spec.endswith(".npz"):
         from learners.som import VisuomotorSOM
 
