@@ -68,6 +68,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -76,7 +77,7 @@ import numpy as np
 from learners.base import Controller, check_pixels
 from learners.lattice import Lattice
 from learners.persistence import CheckpointError, load_npz, save_npz
-from learners.schedules import Schedule, harmonic
+from learners.schedules import Continual, ErrorMonitor, Schedule, harmonic
 
 RULES = ("mrs", "brause")
 #: Trial protocols (see the module docstring): MRS with this project's additions, or Brause §3.
@@ -154,6 +155,8 @@ class VisuomotorSOM(Controller):
             initial to final, see :func:`learners.schedules.harmonic`).
         protocol: "mrs" or "brause" (Brause's own coarse move, fine move (3.7) and learning
             (3.9)/(3.10) with the step neighbourhood; see the module docstring).
+        continual: a :class:`~learners.schedules.Continual` to keep re-adapting after t_max
+            when the sensed error rises (None: the standard schedules, floors from t_max on).
     """
 
     def __init__(
@@ -179,6 +182,7 @@ class VisuomotorSOM(Controller):
         min_dv: float = DEFAULT_MIN_DV,
         protocol: str = "mrs",
         gamma: ScheduleLike = DEFAULT_GAMMA,
+        continual: Continual | None = None,
     ) -> None:
         if protocol not in PROTOCOLS:
             raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
@@ -230,6 +234,7 @@ class VisuomotorSOM(Controller):
         self._A = self.rng.normal(0.0, a_std, size=(N, J, D)) if a_std > 0 else np.zeros((N, J, D))
         self.t = 0
         self.skipped = {"not_visible": 0, "small_dv": 0}
+        self.monitor = None if continual is None else ErrorMonitor(continual)
         self._version = 0  # counts changes of w, for the winner remembered from the coarse act
         self._sync()
         self.reset()
@@ -292,8 +297,10 @@ class VisuomotorSOM(Controller):
         """ε, σ, ε', σ' and the exploration std at t = trials learned so far."""
         if self._params_t != self.t:
             t, T = self.t, self.t_max
+            frac = min(t, T) / T if self.monitor is None else self.monitor.fraction(t, T)
             self._params = tuple(
-                s(t, T) for s in (self.eps, self.sigma, self.eps_out, self.sigma_out, self.explore)
+                s.at(frac)
+                for s in (self.eps, self.sigma, self.eps_out, self.sigma_out, self.explore)
             )
             self._params_t = t
         return self._params
@@ -458,6 +465,10 @@ class VisuomotorSOM(Controller):
         if dv2 < self.min_dv * self.min_dv:
             self.skipped["small_dv"] += 1
             return False
+        if self.monitor is not None:
+            e = u - v0  # the coarse error: the fine move hides a shift of the images
+            if self.monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
+                self._params_t = -1  # a re-adaptation starts: the schedules run back
         eps, sigma, eps_out, sigma_out, _ = self.params()
         key = u.tobytes()
         if self._last_winner[0] == key and self._last_winner[1] == self._version:
@@ -557,6 +568,9 @@ class VisuomotorSOM(Controller):
             "skipped": dict(self.skipped),
             "rng_state": self.rng.bit_generator.state,
         }
+        if self.monitor is not None:
+            config["continual"] = asdict(self.monitor.params)
+            config["continual_state"] = self.monitor.state()
         arrays = {
             "w": self._w,
             "theta": self._th,
@@ -597,6 +611,7 @@ class VisuomotorSOM(Controller):
                 a_init=config["a_init"],
                 min_dv=config["min_dv"],
                 protocol=config.get("protocol", "mrs"),  # files from before the option: MRS
+                continual=Continual(**config["continual"]) if "continual" in config else None,
                 **{k: tuple(v) for k, v in config["schedules"].items()},
             )
             for name in ("w", "theta", "A"):
@@ -609,6 +624,8 @@ class VisuomotorSOM(Controller):
                 setattr(som, name, stored)  # copies, checks finiteness, refreshes caches
             som.t = int(config["t"])
             som.skipped = {k: int(n) for k, n in config["skipped"].items()}
+            if som.monitor is not None:
+                som.monitor = ErrorMonitor(som.monitor.params, config["continual_state"])
             som.rng = np.random.Generator(bit_generator)
             for k in cls._MEMORY:
                 setattr(som, k, arrays[k].copy() if k in arrays else None)
