@@ -99,13 +99,13 @@ class Continual:
     """
 
     fast: float = 0.02
-    slow: float = 0.002
-    trigger: float = 2.0
-    # Chosen by measurement on RIACS after a camera change (5 cm, 3°; rewinds 0.2-0.7 and
-    # 1000-2500 trials tried): rewinding to 0.2 and re-annealing over 2500 trials came back
+    slow: float = 0.001
+    trigger: float = 1.5
+    # Chosen by measurement on RIACS after a camera change (5 cm, 3°; rewinds 0-0.7 and
+    # 1000-6000 trials tried): rewinding to 0.25 and re-annealing over 3000 trials came back
     # furthest within 3000 trials.
-    rewind: float = 0.2
-    readapt: int = 2500
+    rewind: float = 0.25
+    readapt: int = 3000
 
     def __post_init__(self) -> None:
         if not (0 < self.slow < self.fast <= 1 and self.trigger > 1 and 0 <= self.rewind < 1):

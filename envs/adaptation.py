@@ -1,0 +1,195 @@
+"""Re-adaptation after a change of the scene: the learned map against the stale exact baselines.
+
+One run: train a map for ``train_trials`` trials; apply a change (:mod:`envs.perturb`) to the
+training env and to the evaluation env; go on training for ``after_trials`` trials, evaluating on
+the same held-out targets every ``every`` trials. Compared on those targets: the map learning on
+(with the standard schedules and in the continual mode, side by side), a frozen copy of the map
+as it was at the change, ``AnalyticIK`` and ``JacobianIK`` with the nominal (stale)
+calibration, and the exact IK re-calibrated on the changed scene (an oracle,
+:class:`envs.oracle.RecalibratedIK`). The controllers that do not learn are evaluated once after
+the change (their commands are deterministic, so every later evaluation would repeat it).
+Every mean counts all trials (``envs.evaluation``).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import gymnasium as gym
+
+from envs.evaluation import evaluate
+from envs.oracle import RecalibratedIK
+from envs.training import EVAL_SEED_OFFSET, RunConfig, initial_map
+from envs.trials import learn_from, run_trial
+from learners.analytic_ik import AnalyticIK
+from learners.jacobian_ik import JacobianIK
+from learners.schedules import Continual, ErrorMonitor
+from learners.som import VisuomotorSOM
+
+#: The named changes of the issue: camera moved 5 cm and turned 3°, focal length +5 %, tool 5 cm
+#: longer, base moved 5 cm; "none" for the no-change control.
+CHANGES: dict[str, dict[str, Any]] = {
+    "none": {},
+    "camera": {"camera_shift": [0.05, 0.0, 0.0], "camera_turn": [0.0, 0.0523599, 0.0]},
+    "zoom": {"zoom": 1.05},
+    "tool": {"tool": 0.05},
+    "base": {"base_shift": [0.05, 0.0, 0.0]},
+}
+MAP_STANDARD, MAP_CONTINUAL = "map, standard schedule", "map, continual mode"
+
+Progress = Callable[[str, int], None]
+
+
+@dataclass(frozen=True)
+class AdaptConfig:
+    """One adaptation run (all fields JSON-ready)."""
+
+    env: str = "RiacsReach-v0"
+    sensing: str = "project"
+    control: str = "kinematic"
+    seed: int = 0
+    train_trials: int = 10_000
+    after_trials: int = 3000
+    every: int = 250  # trials between evaluations after the change
+    eval_trials: int = 1000
+    change: str = "camera"
+    fine_moves: int = 2
+    lattice: tuple[int, ...] = (12, 7, 4)
+    extra: dict[str, Any] = field(default_factory=dict)  # a change not in CHANGES, if given
+
+    def make_env(self, seed_offset: int = 0) -> gym.Env:
+        return RunConfig(self.env, self.sensing, self.control, self.seed).make_env(seed_offset)
+
+
+def train(env, som: VisuomotorSOM, trials: int) -> None:
+    """``trials`` training trials (coarse + one exploring fine move, then ``learn``)."""
+    for _ in range(trials):
+        learn_from(som, run_trial(env, som, fine_moves=1, explore=True))
+
+
+def pretrain(
+    config: AdaptConfig, every: int = 2000, progress: Progress | None = None
+) -> tuple[VisuomotorSOM, list[dict[str, Any]]]:
+    """A map trained on the nominal scene for ``config.train_trials`` trials, watching its
+    sensed error for the continual mode (which changes nothing before t_max), and its held-out
+    learning curve every ``every`` trials (rows ``{"trial", **summary}``)."""
+    run = RunConfig(
+        config.env, config.sensing, config.control, config.seed, config.train_trials,
+        tuple(config.lattice),
+    )  # fmt: skip
+    env, eval_env = config.make_env(), config.make_env(EVAL_SEED_OFFSET)
+    try:
+        som = initial_map(run, env)
+        som.monitor = ErrorMonitor(Continual())
+        curve = [{"trial": 0, **held_out(eval_env, som, config)}]
+        while curve[-1]["trial"] < config.train_trials:
+            n = min(every, config.train_trials - curve[-1]["trial"])
+            train(env, som, n)
+            curve.append({"trial": curve[-1]["trial"] + n, **held_out(eval_env, som, config)})
+            if progress is not None:
+                progress("pre-training", curve[-1]["trial"])
+    finally:
+        env.close()
+        eval_env.close()
+    return som, curve
+
+
+def held_out(env, controller, config: AdaptConfig) -> dict[str, Any]:
+    """Summary of ``config.eval_trials`` trials on the fixed held-out targets."""
+    env.reset(seed=config.seed + EVAL_SEED_OFFSET)
+    summary = evaluate(env, controller, config.eval_trials, config.fine_moves).summary()
+    controller.reset()
+    summary.pop("microseconds_per_query", None)  # wall time: would make reruns differ
+    return summary
+
+
+def adapt(
+    config: AdaptConfig, som: VisuomotorSOM, progress: Progress | None = None
+) -> tuple[dict[str, Any], dict[str, VisuomotorSOM]]:
+    """Run the change and the re-adaptation for a map from :func:`pretrain` (not changed).
+
+    Two copies of the map learn on after the change, side by side: the standard schedules
+    (floors from t_max on, as published) and the continual mode (:class:`Continual`).
+
+    Returns:
+        ``{"config", "change", "before": {name: summary}, "after": {name: summary},
+        "curves": {map name: [{"trial", **summary}, ...]}}``: before = the map and the
+        baselines on the nominal scene; after = the controllers that do not learn, on the
+        changed scene; curves = each learning map at 0, every, 2·every, ... trials after the
+        change; and the two maps as they are at the end.
+    """
+    env, eval_env = config.make_env(), config.make_env(EVAL_SEED_OFFSET)
+    try:
+        base = eval_env.unwrapped
+        stale = {
+            "AnalyticIK stale": AnalyticIK.for_robot(
+                base.nominal_stereo.triangulate, base.robot, base.joints
+            ),
+            "JacobianIK stale": JacobianIK.for_robot(
+                base.nominal_stereo.triangulate, base.robot, base.joints
+            ),
+        }
+        before = {"map": held_out(eval_env, som, config)}
+        before.update({name: held_out(eval_env, c, config) for name, c in stale.items()})
+        change = config.extra or CHANGES[config.change]
+        applied = base.perturb(change)
+        env.unwrapped.perturb(change)
+        learning = {MAP_STANDARD: copy.deepcopy(som), MAP_CONTINUAL: copy.deepcopy(som)}
+        learning[MAP_STANDARD].monitor = None
+        frozen = copy.deepcopy(som)
+        static = {"map frozen": frozen, **stale, "AnalyticIK recalibrated": RecalibratedIK(base)}
+        after = {name: held_out(eval_env, c, config) for name, c in static.items()}
+        curves = {}
+        for name, learner in learning.items():
+            curve = [{"trial": 0, **after["map frozen"]}]
+            while curve[-1]["trial"] < config.after_trials:
+                n = min(config.every, config.after_trials - curve[-1]["trial"])
+                train(env, learner, n)
+                curve.append(
+                    {"trial": curve[-1]["trial"] + n, **held_out(eval_env, learner, config)}
+                )
+                if progress is not None:
+                    progress(f"{config.change}: {name}", curve[-1]["trial"])
+            curves[name] = curve
+        after["map frozen (end)"] = held_out(eval_env, frozen, config)
+    finally:
+        env.close()
+        eval_env.close()
+    result = {
+        "config": asdict(config),
+        "change": applied.describe(),
+        "before": before,
+        "after": after,
+        "curves": curves,
+        "readaptations": learning[MAP_CONTINUAL].monitor.readaptations,
+    }
+    return result, learning
+
+
+def trials_to_recover(result: dict[str, Any], name: str, factor: float = 1.2) -> int | None:
+    """First evaluation (trials after the change) at which map ``name``'s fine-2 error is within
+    ``factor`` of the map's before the change; None if it never is within the run."""
+    goal = factor * result["before"]["map"]["mean_mm"][-1]
+    return next((r["trial"] for r in result["curves"][name] if r["mean_mm"][-1] <= goal), None)
+
+
+def table_row(result: dict[str, Any]) -> dict[str, Any]:
+    """The figures of one run, fine-2 mean errors in mm (JSON-ready)."""
+    fine = {name: s["mean_mm"][-1] for name, s in result["after"].items()}
+    row = {
+        "env": result["config"]["env"],
+        "change": result["change"],
+        "map before": result["before"]["map"]["mean_mm"][-1],
+        "just after": fine["map frozen"],
+    }
+    for name in (MAP_STANDARD, MAP_CONTINUAL):
+        row[f"{name}: trials to 1.2x"] = trials_to_recover(result, name)
+        row[f"{name}: end"] = result["curves"][name][-1]["mean_mm"][-1]
+    for name in ("AnalyticIK stale", "JacobianIK stale", "AnalyticIK recalibrated"):
+        row[name] = fine[name]
+    row["complete trials (continual, end)"] = result["curves"][MAP_CONTINUAL][-1]["complete_trials"]
+    row["trials"] = result["curves"][MAP_CONTINUAL][-1]["trials"]
+    return row

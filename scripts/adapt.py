@@ -1,0 +1,91 @@
+"""Re-adaptation after a change of the scene: the learned map against the stale exact baselines.
+
+Per arm: train the map for --train-trials trials on the nominal scene; for each change, apply it
+and go on for --after trials, evaluating every --every trials on --eval-trials held-out targets.
+Writes <out>/<env>/<change>.json, <out>/<env>/curves.png, <out>/table.json and a video of the
+first change (trials before it, just after it and after recovery, side by side).
+
+python scripts/adapt.py --out runs/adapt                                  # idealised, both arms
+python scripts/adapt.py --sensing render --control servo --train-trials 3000 --after 2000 \\
+    --every 500 --eval-trials 200 --changes camera --out runs/adapt-realistic
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
+from envs.adaptation import CHANGES, MAP_CONTINUAL, AdaptConfig, adapt, pretrain, table_row
+from envs.adaptation_media import curves_figure, phases_video
+from learners.persistence import write_atomic
+
+
+def _write_json(path: Path, data: object) -> None:
+    write_atomic(path, lambda f: f.write(json.dumps(data, indent=1).encode()))
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--envs", nargs="+", default=["RiacsReach-v0", "PumaReach-v0"])
+    parser.add_argument("--changes", nargs="+", default=list(CHANGES), choices=list(CHANGES))
+    parser.add_argument("--sensing", default="project")
+    parser.add_argument("--control", default="kinematic")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--train-trials", type=int, default=10_000)
+    parser.add_argument("--pre-every", type=int, default=2000, help="evaluations before the change")
+    parser.add_argument("--after", type=int, default=3000, help="trials after the change")
+    parser.add_argument("--every", type=int, default=250, help="evaluations after the change")
+    parser.add_argument("--eval-trials", type=int, default=1000)
+    parser.add_argument("--video-trials", type=int, default=3, help="0: no video")
+    parser.add_argument("--out", type=Path, default=Path("runs/adapt"))
+    args = parser.parse_args(argv)
+    start = time.monotonic()
+
+    def progress(stage: str, trial: int) -> None:
+        print(f"  [{time.monotonic() - start:7.0f} s] {stage}: {trial} trials", flush=True)
+
+    rows = []
+    for env_id in args.envs:
+        base = AdaptConfig(
+            env_id, args.sensing, args.control, args.seed, args.train_trials, args.after,
+            args.every, args.eval_trials,
+        )  # fmt: skip
+        folder = args.out / env_id
+        print(f"{env_id}: pre-training ({args.sensing}, {args.control})", flush=True)
+        som, pre = pretrain(base, args.pre_every, progress)
+        som.save(folder / "pretrained.npz")
+        _write_json(folder / "pretraining.json", pre)
+        results = []
+        for change in args.changes:
+            config = AdaptConfig(**{**base.__dict__, "change": change})
+            result, maps = adapt(config, som, progress)
+            _write_json(folder / f"{change}.json", result)
+            results.append(result)
+            rows.append(table_row(result))
+            print(json.dumps(rows[-1]), flush=True)
+            if args.video_trials and change == args.changes[0]:
+                phases = [
+                    ("before the change", {}, som),
+                    (f"just after: {result['change']}", CHANGES[change], som),
+                    (
+                        f"{args.after} trials later (continual)",
+                        CHANGES[change],
+                        maps[MAP_CONTINUAL],
+                    ),
+                ]
+                video = folder / f"video_{change}.mp4"
+                options = {"sensing": args.sensing, "control": args.control}
+                phases_video(env_id, options, phases, video, args.video_trials, args.seed + 1)
+                print(f"  wrote {video}", flush=True)
+        title = f"{env_id}, {args.sensing} + {args.control}, {args.eval_trials} held-out targets"
+        print(f"  wrote {curves_figure(pre, results, title, folder / 'curves.png')}", flush=True)
+    _write_json(args.out / "table.json", rows)
+    print(f"done in {time.monotonic() - start:.0f} s; table in {args.out / 'table.json'}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,69 @@
+"""Re-adaptation after a change (envs.adaptation, scripts/adapt.py) on a small run: the map that
+learns on gets better, the frozen one stays put, the stale baselines are off by about the change
+and the re-calibrated oracle is exact."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import cv2
+import pytest
+
+import envs  # noqa: F401  (GL back-end before mujoco)
+from envs.adaptation import MAP_CONTINUAL, MAP_STANDARD, AdaptConfig, adapt, pretrain
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+sys.path.insert(0, str(SCRIPTS))
+
+import adapt as adapt_script  # noqa: E402
+
+COARSE = 0  # column of the coarse error: the one a camera change moves most
+IMPROVED = 0.8  # the learning map's error after the run, at most this fraction of just after
+
+
+@pytest.fixture(scope="module")
+def run():
+    config = AdaptConfig(
+        "RiacsReach-v0", train_trials=2000, after_trials=400, every=200, eval_trials=150,
+        lattice=(6, 4, 3),
+    )  # fmt: skip
+    som, _ = pretrain(config, every=2000)
+    return adapt(config, som)[0]
+
+
+@pytest.mark.parametrize("name", [MAP_STANDARD, MAP_CONTINUAL])
+def test_the_learning_map_gets_better_after_a_camera_change(run, name):
+    just_after = run["after"]["map frozen"]["mean_mm"][COARSE]
+    end = run["curves"][name][-1]["mean_mm"][COARSE]
+    assert end < IMPROVED * just_after, (name, just_after, end)
+
+
+def test_the_frozen_map_stays_put(run):
+    assert run["after"]["map frozen (end)"] == run["after"]["map frozen"]
+    assert run["curves"][MAP_STANDARD][0] == {"trial": 0, **run["after"]["map frozen"]}
+
+
+def test_stale_baselines_miss_by_the_change_and_the_oracle_is_exact(run):
+    for name in ("AnalyticIK stale", "JacobianIK stale"):
+        assert run["before"][name]["mean_mm"][-1] < 1e-3  # exact before the change
+        assert run["after"][name]["mean_mm"][-1] > 10.0  # a 5 cm, 3° camera change: cm errors
+    assert run["after"]["AnalyticIK recalibrated"]["mean_mm"][-1] < 1e-3
+
+
+def test_adapt_script_writes_results_plot_and_video(tmp_path):
+    rows = adapt_script.main(
+        ["--envs", "RiacsReach-v0", "--changes", "zoom", "--train-trials", "200",
+         "--pre-every", "200", "--after", "100", "--every", "100", "--eval-trials", "20",
+         "--video-trials", "1", "--out", str(tmp_path)]
+    )  # fmt: skip
+    folder = tmp_path / "RiacsReach-v0"
+    result = json.loads((folder / "zoom.json").read_text())
+    assert result["change"] == "focal length +5.0 %"
+    assert [r["trial"] for r in result["curves"][MAP_CONTINUAL]] == [0, 100]
+    assert rows == json.loads((tmp_path / "table.json").read_text())
+    assert (folder / "curves.png").stat().st_size > 10_000
+    capture = cv2.VideoCapture(str(folder / "video_zoom.mp4"))
+    ok, frame = capture.read()
+    assert ok and frame.shape[1] == 3 * 320  # three phases side by side
