@@ -54,6 +54,7 @@ def curves_figure(pre: list[dict], results: list[dict[str, Any]], title: str, pa
         before = result["before"]["map"]["mean_mm"][FINE]
         ax.axhline(RECOVERED * before, color="0.6", lw=0.8, label=f"{RECOVERED}× map before")
         ax.axvline(t0, color="0.3", lw=0.8)
+        ax.set_xlim(max(0, t0 - result["config"]["after_trials"]), end)
         ax.set_yscale("symlog", linthresh=LINEAR_BELOW)
         ax.set_title(result["change"], fontsize=9)
         ax.set_xlabel("training trials (change at the vertical line)")

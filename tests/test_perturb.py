@@ -10,6 +10,16 @@ from models import puma560, riacs
 from scripts.controllers import make_controller
 
 RENDER_TOL = 0.5  # px: rendered sensing vs exact projection (as tests/test_stereo.py)
+#: The model arrays a perturbation writes.
+MODEL_FIELDS = (
+    "cam_pos",
+    "cam_quat",
+    "cam_intrinsic",
+    "cam_fovy",
+    "site_pos",
+    "geom_pos",
+    "body_pos",
+)
 XML_TOL = 1e-4  # px: the scene's sensor size is written with 8 digits
 # The RIACS cameras (scene.xml): 78 px per unit of normalised coordinate; principal points.
 RIACS_F = 78.0  # px
@@ -149,29 +159,12 @@ def test_baselines_keep_the_nominal_cameras(riacs_env):
 def test_bad_perturbations_raise_before_anything_changes(riacs_env, bad):
     riacs_env.perturb({"camera_shift": [0.01, 0.0, 0.0], "tool": 0.02})
     model = riacs_env.model
-    state = [
-        a.copy()
-        for a in (
-            model.cam_pos,
-            model.cam_quat,
-            model.cam_intrinsic,
-            model.site_pos,
-            model.geom_pos,
-            model.body_pos,
-        )
-    ]
+    state = [getattr(model, name).copy() for name in MODEL_FIELDS]
     pixels = riacs_env.stereo.project(np.array([0.3, 0.5, 0.0]))
     current = riacs_env.perturbation
     with pytest.raises(PerturbationError):
         riacs_env.perturb(bad)
-    after = (
-        model.cam_pos,
-        model.cam_quat,
-        model.cam_intrinsic,
-        model.site_pos,
-        model.geom_pos,
-        model.body_pos,
-    )
+    after = [getattr(model, name) for name in MODEL_FIELDS]
     for a, b in zip(state, after, strict=True):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(riacs_env.stereo.project(np.array([0.3, 0.5, 0.0])), pixels)
