@@ -32,11 +32,11 @@ from learners.som import VisuomotorSOM
 #: The named changes of the issue: camera moved 5 cm and turned 3°, focal length +5 %, tool 5 cm
 #: longer, base moved 5 cm; "none" for the no-change control.
 CHANGES: dict[str, dict[str, Any]] = {
-    "none": {},
     "camera": {"camera_shift": [0.05, 0.0, 0.0], "camera_turn": [0.0, 0.0523599, 0.0]},
     "zoom": {"zoom": 1.05},
     "tool": {"tool": 0.05},
     "base": {"base_shift": [0.05, 0.0, 0.0]},
+    "none": {},
 }
 MAP_STANDARD, MAP_CONTINUAL = "map, standard schedule", "map, continual mode"
 
@@ -193,3 +193,26 @@ def table_row(result: dict[str, Any]) -> dict[str, Any]:
     row["complete trials (continual, end)"] = result["curves"][MAP_CONTINUAL][-1]["complete_trials"]
     row["trials"] = result["curves"][MAP_CONTINUAL][-1]["trials"]
     return row
+
+
+def markdown_table(rows: list[dict[str, Any]]) -> str:
+    """The rows of :func:`table_row` as a Markdown table (fine-2 mean errors in mm)."""
+
+    def trials(n: int | None) -> str:
+        return "—" if n is None else f"{n:,}"
+
+    lines = [
+        "| arm | change | before | just after | standard: trials to 1.2× | standard: after "
+        "| continual: trials to 1.2× | continual: after | AnalyticIK stale | JacobianIK stale "
+        "| re-calibrated |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['env'].replace('Reach-v0', '')} | {r['change']} | {r['map before']:.2f} "
+            f"| {r['just after']:.2f} | {trials(r[f'{MAP_STANDARD}: trials to 1.2x'])} "
+            f"| {r[f'{MAP_STANDARD}: end']:.2f} | {trials(r[f'{MAP_CONTINUAL}: trials to 1.2x'])} "
+            f"| {r[f'{MAP_CONTINUAL}: end']:.2f} | {r['AnalyticIK stale']:.1f} "
+            f"| {r['JacobianIK stale']:.1f} | {r['AnalyticIK recalibrated']:.3f} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -2,13 +2,14 @@
 
 Per arm: train the map for --train-trials trials on the nominal scene; for each change, apply it
 and go on for --after trials, evaluating every --every trials on --eval-trials held-out targets.
-Writes <out>/<env>/<change>.json, <out>/<env>/curves.png, <out>/table.json and a video of the
-first change (trials before it, just after it and after recovery, side by side).
+Writes <out>/<env>/<change>.json, <out>/<env>/curves.png, <out>/table.json and table.md, and a
+video of the first change other than "none" (trials before it, just after it and after
+recovery, side by side).
 
 python scripts/adapt.py --out runs/adapt                                  # idealised, both arms
-python scripts/adapt.py --sensing render --control servo --train-trials 3000 --after 2000 \\
-    --every 500 --eval-trials 200 --changes camera --out runs/adapt-realistic
-"""
+python scripts/adapt.py --sensing render --control servo --train-trials 3000 --pre-every 1500 \
+    --after 1500 --every 500 --eval-trials 150 --changes camera --video-trials 2 \
+    --out runs/adapt-realistic                                            # realistic, sized down"""
 
 from __future__ import annotations
 
@@ -18,7 +19,15 @@ import time
 from pathlib import Path
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
-from envs.adaptation import CHANGES, MAP_CONTINUAL, AdaptConfig, adapt, pretrain, table_row
+from envs.adaptation import (
+    CHANGES,
+    MAP_CONTINUAL,
+    AdaptConfig,
+    adapt,
+    markdown_table,
+    pretrain,
+    table_row,
+)
 from envs.adaptation_media import curves_figure, phases_video
 from learners.persistence import write_atomic
 
@@ -47,6 +56,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     def progress(stage: str, trial: int) -> None:
         print(f"  [{time.monotonic() - start:7.0f} s] {stage}: {trial} trials", flush=True)
 
+    video_change = next((c for c in args.changes if c != "none"), None)
     rows = []
     for env_id in args.envs:
         base = AdaptConfig(
@@ -66,7 +76,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             results.append(result)
             rows.append(table_row(result))
             print(json.dumps(rows[-1]), flush=True)
-            if args.video_trials and change == args.changes[0]:
+            if args.video_trials and change == video_change:
                 phases = [
                     ("before the change", {}, som),
                     (f"just after: {result['change']}", CHANGES[change], som),
@@ -83,6 +93,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
         title = f"{env_id}, {args.sensing} + {args.control}, {args.eval_trials} held-out targets"
         print(f"  wrote {curves_figure(pre, results, title, folder / 'curves.png')}", flush=True)
     _write_json(args.out / "table.json", rows)
+    table = markdown_table(rows)
+    write_atomic(args.out / "table.md", lambda f: f.write(table.encode()))
+    print(table)
     print(f"done in {time.monotonic() - start:.0f} s; table in {args.out / 'table.json'}")
     return rows
 
