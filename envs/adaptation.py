@@ -97,6 +97,28 @@ def pretrain(
     return som, curve
 
 
+def warm_up(
+    config: AdaptConfig, som: VisuomotorSOM, trials: int, progress: Progress | None = None
+) -> list[dict[str, Any]]:
+    """Carry a map trained elsewhere (e.g. in the idealised setting) into ``config``'s setting:
+    restart its error monitor and train it ``trials`` trials on the nominal scene, so that the
+    continual mode's reference is this setting's error. Returns the held-out curve at the start
+    and the end (rows ``{"trial", **summary}``, trials counted from the map's first)."""
+    env, eval_env = config.make_env(), config.make_env(EVAL_SEED_OFFSET)
+    try:
+        som.monitor = ErrorMonitor(Continual())
+        seen = som.t + sum(som.skipped.values())
+        curve = [{"trial": seen, **held_out(eval_env, som, config)}]
+        train(env, som, trials)
+        curve.append({"trial": seen + trials, **held_out(eval_env, som, config)})
+        if progress is not None:
+            progress("warm-up", trials)
+    finally:
+        env.close()
+        eval_env.close()
+    return curve
+
+
 def held_out(env, controller, config: AdaptConfig) -> dict[str, Any]:
     """Summary of ``config.eval_trials`` trials on the fixed held-out targets."""
     env.reset(seed=config.seed + EVAL_SEED_OFFSET)

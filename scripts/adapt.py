@@ -7,9 +7,10 @@ video of the first change other than "none" (trials before it, just after it and
 recovery, side by side).
 
 python scripts/adapt.py --out runs/adapt                                  # idealised, both arms
-python scripts/adapt.py --sensing render --control servo --train-trials 3000 --pre-every 1500 \
-    --after 1500 --every 500 --eval-trials 150 --changes camera --video-trials 2 \
-    --out runs/adapt-realistic                                            # realistic, sized down"""
+python scripts/adapt.py --sensing render --control servo --pretrained runs/adapt --warmup 300 \\
+    --after 1000 --every 500 --eval-trials 100 --changes camera --video-trials 2 \\
+    --out runs/adapt-realistic                # realistic, from the idealised maps, sized down
+"""
 
 from __future__ import annotations
 
@@ -27,9 +28,11 @@ from envs.adaptation import (
     markdown_table,
     pretrain,
     table_row,
+    warm_up,
 )
 from envs.adaptation_media import curves_figure, phases_video
 from learners.persistence import write_atomic
+from learners.som import VisuomotorSOM
 
 
 def _write_json(path: Path, data: object) -> None:
@@ -48,6 +51,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--after", type=int, default=3000, help="trials after the change")
     parser.add_argument("--every", type=int, default=250, help="evaluations after the change")
     parser.add_argument("--eval-trials", type=int, default=1000)
+    parser.add_argument(
+        "--pretrained",
+        type=Path,
+        help="instead of pre-training, load <PRETRAINED>/<env>/pretrained.npz (e.g. the idealised "
+        "run's maps) and train it --warmup trials in this setting before the change",
+    )
+    parser.add_argument("--warmup", type=int, default=300)
     parser.add_argument("--video-trials", type=int, default=3, help="0: no video")
     parser.add_argument("--out", type=Path, default=Path("runs/adapt"))
     args = parser.parse_args(argv)
@@ -64,8 +74,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
             args.every, args.eval_trials,
         )  # fmt: skip
         folder = args.out / env_id
-        print(f"{env_id}: pre-training ({args.sensing}, {args.control})", flush=True)
-        som, pre = pretrain(base, args.pre_every, progress)
+        if args.pretrained is None:
+            print(f"{env_id}: pre-training ({args.sensing}, {args.control})", flush=True)
+            som, pre = pretrain(base, args.pre_every, progress)
+        else:
+            som = VisuomotorSOM.load(args.pretrained / env_id / "pretrained.npz")
+            print(f"{env_id}: {som.t} trials learned; warm-up in {args.sensing}, {args.control}")
+            pre = warm_up(base, som, args.warmup, progress)
         som.save(folder / "pretrained.npz")
         _write_json(folder / "pretraining.json", pre)
         results = []

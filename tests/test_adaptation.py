@@ -13,6 +13,7 @@ import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.adaptation import MAP_CONTINUAL, MAP_STANDARD, AdaptConfig, adapt, pretrain
+from learners.som import VisuomotorSOM
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 sys.path.insert(0, str(SCRIPTS))
@@ -67,3 +68,15 @@ def test_adapt_script_writes_results_plot_and_video(tmp_path):
     capture = cv2.VideoCapture(str(folder / "video_zoom.mp4"))
     ok, frame = capture.read()
     assert ok and frame.shape[1] == 3 * 320  # three phases side by side
+    # A map carried from one run into another: warmed up in the new run, then changed.
+    again = tmp_path / "again"
+    adapt_script.main(
+        ["--envs", "RiacsReach-v0", "--changes", "base", "--pretrained", str(tmp_path),
+         "--warmup", "30", "--after", "20", "--every", "20", "--eval-trials", "5",
+         "--video-trials", "0", "--out", str(again)]
+    )  # fmt: skip
+    carried = VisuomotorSOM.load(again / "RiacsReach-v0" / "pretrained.npz")
+    assert carried.t + sum(carried.skipped.values()) == 200 + 30
+    assert json.loads((again / "RiacsReach-v0" / "base.json").read_text())["change"] == (
+        "base moved 50 mm"
+    )
