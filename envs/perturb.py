@@ -52,7 +52,7 @@ def _vectors(value, shape: tuple[int, ...], name: str, limit: float) -> np.ndarr
     return a
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays: compare fields explicitly
 class Perturbation:
     """A change of the scene relative to its nominal state.
 
