@@ -18,8 +18,6 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-import gymnasium as gym
-
 from envs.evaluation import evaluate
 from envs.oracle import RecalibratedIK
 from envs.training import EVAL_SEED_OFFSET, RunConfig, initial_map
@@ -45,23 +43,15 @@ Progress = Callable[[str, int], None]
 
 @dataclass(frozen=True)
 class AdaptConfig:
-    """One adaptation run (all fields JSON-ready)."""
+    """One adaptation run: the pre-training ``run`` (env, sensing, control, seed, ``trials``,
+    lattice; ``eval_every`` for its learning curve; ``eval_trials`` held-out targets and
+    ``fine_moves`` for every evaluation) and what follows it (all fields JSON-ready)."""
 
-    env: str = "RiacsReach-v0"
-    sensing: str = "project"
-    control: str = "kinematic"
-    seed: int = 0
-    train_trials: int = 10_000
+    run: RunConfig = field(default_factory=lambda: RunConfig(eval_every=2000, eval_trials=1000))
+    change: str = "camera"
     after_trials: int = 3000
     every: int = 250  # trials between evaluations after the change
-    eval_trials: int = 1000
-    change: str = "camera"
-    fine_moves: int = 2
-    lattice: tuple[int, ...] = (12, 7, 4)
     extra: dict[str, Any] = field(default_factory=dict)  # a change not in CHANGES, if given
-
-    def make_env(self, seed_offset: int = 0) -> gym.Env:
-        return RunConfig(self.env, self.sensing, self.control, self.seed).make_env(seed_offset)
 
 
 def train(env, som: VisuomotorSOM, trials: int) -> None:
@@ -71,22 +61,19 @@ def train(env, som: VisuomotorSOM, trials: int) -> None:
 
 
 def pretrain(
-    config: AdaptConfig, every: int = 2000, progress: Progress | None = None
+    config: AdaptConfig, progress: Progress | None = None
 ) -> tuple[VisuomotorSOM, list[dict[str, Any]]]:
-    """A map trained on the nominal scene for ``config.train_trials`` trials, watching its
-    sensed error for the continual mode (which changes nothing before t_max), and its held-out
-    learning curve every ``every`` trials (rows ``{"trial", **summary}``)."""
-    run = RunConfig(
-        config.env, config.sensing, config.control, config.seed, config.train_trials,
-        tuple(config.lattice),
-    )  # fmt: skip
-    env, eval_env = config.make_env(), config.make_env(EVAL_SEED_OFFSET)
+    """A map trained on the nominal scene for ``config.run.trials`` trials, watching its sensed
+    error for the continual mode (which changes nothing before t_max), and its held-out learning
+    curve every ``config.run.eval_every`` trials (rows ``{"trial", **summary}``)."""
+    run = config.run
+    env, eval_env = run.make_env(), run.make_env(EVAL_SEED_OFFSET)
     try:
         som = initial_map(run, env)
         som.monitor = ErrorMonitor(Continual())
         curve = [{"trial": 0, **held_out(eval_env, som, config)}]
-        while curve[-1]["trial"] < config.train_trials:
-            n = min(every, config.train_trials - curve[-1]["trial"])
+        while curve[-1]["trial"] < run.trials:
+            n = min(run.eval_every, run.trials - curve[-1]["trial"])
             train(env, som, n)
             curve.append({"trial": curve[-1]["trial"] + n, **held_out(eval_env, som, config)})
             if progress is not None:
@@ -104,7 +91,7 @@ def warm_up(
     restart its error monitor and train it ``trials`` trials on the nominal scene, so that the
     continual mode's reference is this setting's error. Returns the held-out curve at the start
     and the end (rows ``{"trial", **summary}``, trials counted from the map's first)."""
-    env, eval_env = config.make_env(), config.make_env(EVAL_SEED_OFFSET)
+    env, eval_env = config.run.make_env(), config.run.make_env(EVAL_SEED_OFFSET)
     try:
         som.monitor = ErrorMonitor(Continual())
         seen = som.t + sum(som.skipped.values())
@@ -120,9 +107,10 @@ def warm_up(
 
 
 def held_out(env, controller, config: AdaptConfig) -> dict[str, Any]:
-    """Summary of ``config.eval_trials`` trials on the fixed held-out targets."""
-    env.reset(seed=config.seed + EVAL_SEED_OFFSET)
-    summary = evaluate(env, controller, config.eval_trials, config.fine_moves).summary()
+    """Summary of ``config.run.eval_trials`` trials on the fixed held-out targets."""
+    run = config.run
+    env.reset(seed=run.seed + EVAL_SEED_OFFSET)
+    summary = evaluate(env, controller, run.eval_trials, run.fine_moves).summary()
     controller.reset()
     summary.pop("microseconds_per_query", None)  # wall time: would make reruns differ
     return summary
@@ -143,7 +131,7 @@ def adapt(
         changed scene; curves = each learning map at 0, every, 2·every, ... trials after the
         change; and the two maps as they are at the end.
     """
-    env, eval_env = config.make_env(), config.make_env(EVAL_SEED_OFFSET)
+    env, eval_env = config.run.make_env(), config.run.make_env(EVAL_SEED_OFFSET)
     try:
         base = eval_env.unwrapped
         stale = {
@@ -202,7 +190,7 @@ def table_row(result: dict[str, Any]) -> dict[str, Any]:
     """The figures of one run, fine-2 mean errors in mm (JSON-ready)."""
     fine = {name: s["mean_mm"][-1] for name, s in result["after"].items()}
     row = {
-        "env": result["config"]["env"],
+        "env": result["config"]["run"]["env"],
         "change": result["change"],
         "map before": result["before"]["map"]["mean_mm"][-1],
         "just after": fine["map frozen"],

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
@@ -31,6 +32,7 @@ from envs.adaptation import (
     warm_up,
 )
 from envs.adaptation_media import curves_figure, phases_video
+from envs.training import RunConfig
 from learners.persistence import write_atomic
 from learners.som import VisuomotorSOM
 
@@ -69,14 +71,15 @@ def main(argv: list[str] | None = None) -> list[dict]:
     video_change = next((c for c in args.changes if c != "none"), None)
     rows = []
     for env_id in args.envs:
-        base = AdaptConfig(
-            env_id, args.sensing, args.control, args.seed, args.train_trials, args.after,
-            args.every, args.eval_trials,
+        run = RunConfig(
+            env_id, args.sensing, args.control, args.seed, args.train_trials,
+            eval_every=args.pre_every, eval_trials=args.eval_trials,
         )  # fmt: skip
+        base = AdaptConfig(run, after_trials=args.after, every=args.every)
         folder = args.out / env_id
         if args.pretrained is None:
             print(f"{env_id}: pre-training ({args.sensing}, {args.control})", flush=True)
-            som, pre = pretrain(base, args.pre_every, progress)
+            som, pre = pretrain(base, progress)
         else:
             som = VisuomotorSOM.load(args.pretrained / env_id / "pretrained.npz")
             print(f"{env_id}: {som.t} trials learned; warm-up in {args.sensing}, {args.control}")
@@ -85,7 +88,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         _write_json(folder / "pretraining.json", pre)
         results = []
         for change in args.changes:
-            config = AdaptConfig(**{**base.__dict__, "change": change})
+            config = replace(base, change=change)
             result, maps = adapt(config, som, progress)
             _write_json(folder / f"{change}.json", result)
             results.append(result)

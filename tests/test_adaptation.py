@@ -13,6 +13,7 @@ import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.adaptation import MAP_CONTINUAL, MAP_STANDARD, AdaptConfig, adapt, pretrain
+from envs.training import RunConfig
 from learners.som import VisuomotorSOM
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
@@ -26,11 +27,11 @@ IMPROVED = 0.8  # the learning map's error after the run, at most this fraction 
 
 @pytest.fixture(scope="module")
 def run():
-    config = AdaptConfig(
-        "RiacsReach-v0", train_trials=2000, after_trials=400, every=200, eval_trials=150,
-        lattice=(6, 4, 3),
-    )  # fmt: skip
-    som, _ = pretrain(config, every=2000)
+    run = RunConfig(
+        "RiacsReach-v0", trials=2000, lattice=(6, 4, 3), eval_every=2000, eval_trials=150
+    )
+    config = AdaptConfig(run, after_trials=400, every=200)
+    som, _ = pretrain(config)
     return adapt(config, som)[0]
 
 
