@@ -245,7 +245,8 @@ class ReachEnv(gym.Env):
 
         Args:
             change: a Perturbation or a dict of its fields; None restores the nominal scene.
-            random: instead, sizes for :meth:`Perturbation.random` drawn with ``seed``.
+            random: instead, sizes for :meth:`Perturbation.random`, drawn with a generator of
+                ``seed`` (default: the env's ``np_random``, seeded by ``reset(seed=...)``).
         Returns:
             the change now in effect; the next reset senses a target in the changed scene.
         Raises:
@@ -255,7 +256,8 @@ class ReachEnv(gym.Env):
         if random is not None:
             if change is not None:
                 raise ValueError("pass either a change or random sizes, not both")
-            change = Perturbation.random(np.random.default_rng(seed), **random)
+            rng = self.np_random if seed is None else np.random.default_rng(seed)
+            change = Perturbation.random(rng, **random)
         change = Perturbation.of(change)
         self._scene.check(change, self.spec_robot.workspace)
         self._scene.apply(change)
