@@ -157,6 +157,7 @@ class VisuomotorSOM(Controller):
             (3.9)/(3.10) with the step neighbourhood; see the module docstring).
         continual: a :class:`~learners.schedules.Continual` to keep re-adapting after t_max
             when the sensed error rises (None: the standard schedules, floors from t_max on).
+            It runs the schedules above back; Brause's protocol keeps its own rate γ.
     """
 
     def __init__(
