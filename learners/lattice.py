@@ -1,5 +1,19 @@
-"""The lattice of a Kohonen map: neuron grid coordinates and Gaussian neighbourhoods, with the
-tables that make a neighbourhood lookup cheap precomputed once."""
+"""The lattice of a Kohonen map: neuron grid coordinates and radial neighbourhoods, in O(N) memory.
+
+A neighbourhood weight depends only on the squared lattice distance d² = |r − s|² (an integer),
+and d² is a sum over the axes, d² = Σ_a (r_a − s_a)². So two small tables give any
+neighbourhood of any winner, with no (N, N) table:
+
+    per axis a: (n_a, n_a) squared offsets (i − j)²,
+    per width:  weight[d²] for d² = 0 .. r²_cut, then 0,
+
+and the neurons with weight > 0 lie in the box |r_a − s_a| ≤ ⌊√r²_cut⌋ around the winner, which
+in C order is a strided view of any (N, ...) array. Kinds:
+    "gaussian": h = exp(−d² / 2σ²), dropped below H_CUTOFF (Brause 3.2, MRS);
+    "step":     h = 1 for d ≤ σ, else 0 (Brause's alternative in 3.2).
+weight[d²] is computed as exp(d² · (−1/2σ²)) from the exact integer d², the same double as the
+full-table construction gave, so the weights are bit-identical to it.
+"""
 
 from __future__ import annotations
 
@@ -11,62 +25,108 @@ import numpy as np
 #: less than 1e-6 of itself; the RIACS and PUMA figures are the same to 3 digits as with 1e-12).
 H_CUTOFF = 1e-6
 _LOG_CUTOFF = math.log(1.0 / H_CUTOFF)
-#: Above this fraction of the lattice, a neighbourhood is handled as the whole map (views and
-#: whole-array arithmetic beat gathering and scattering most of the rows).
-_WHOLE_MAP_FRACTION = 0.25
-_ONE = np.ones(1)
-_ONE.flags.writeable = False
+KINDS = ("gaussian", "step")
+
+#: Neighbourhoods and weight tables remembered (a trial asks for two widths, twice each).
+_MEMO_SIZE = 4
+#: A box: one slice per lattice axis.
+Box = tuple[slice, ...]
 
 
 class Lattice:
-    """Neurons on a grid of ``shape`` (C order) and their weights h = exp(−|r − s|² / 2σ²)."""
+    """Neurons on a grid of ``shape`` (C order) and their radial neighbourhood weights.
 
-    def __init__(self, shape: tuple[int, ...]) -> None:
-        self.shape = tuple(shape)
+    Args:
+        shape: lattice sizes (n_1, ..., n_L).
+        kind: "gaussian" or "step" (see the module docstring); the width σ is in lattice units.
+    """
+
+    def __init__(self, shape: tuple[int, ...], kind: str = "gaussian") -> None:
+        if kind not in KINDS:
+            raise ValueError(
+                f"unknown neighbourhood kind {kind!r}; valid kinds: {', '.join(KINDS)}"
+            )
+        self.shape, self.kind = tuple(int(n) for n in shape), kind
         self.coords = np.indices(self.shape).reshape(len(self.shape), -1).T  # (N, L)
-        d2 = ((self.coords[:, None, :] - self.coords[None, :, :]) ** 2).sum(-1)  # (N, N)
-        self._d2 = d2.astype(float)  # (N, N) squared lattice distances
-        self._order = np.argsort(d2, axis=1, kind="stable")  # (N, N) nearest first
-        self._d2_sorted = np.take_along_axis(self._d2, self._order, axis=1)  # (N, N)
-        self._d2_max = int(d2.max())
-        self._count = (d2[:, :, None] <= np.arange(self._d2_max + 1)).sum(1)  # (N, d2_max + 1)
-        self._whole = _WHOLE_MAP_FRACTION * len(self.coords)
-        self._memo_key: tuple[int, float] | None = None
+        self._strides = [math.prod(self.shape[a + 1 :]) for a in range(len(self.shape))]
+        #: squared distance of every lattice offset, indexed by offset + (n_a − 1) per axis:
+        #: Σ_a of the per-axis tables (i − (n_a − 1))², shape (2n_1 − 1, ..., 2n_L − 1)
+        self._offset_d2 = np.zeros((), dtype=np.intp)
+        for n in self.shape:
+            self._offset_d2 = np.add.outer(self._offset_d2, (np.arange(2 * n - 1) - (n - 1)) ** 2)
+        self._d2_max = sum((n - 1) ** 2 for n in self.shape)
+        self._memo: dict[tuple[int, float], tuple[Box, np.ndarray]] = {}
+        self._tables: dict[float, np.ndarray] = {}
+
+    @property
+    def size(self) -> int:
+        return len(self.coords)
 
     def cutoff_radius2(self, sigma: float) -> int:
-        """Largest squared lattice distance whose weight is above H_CUTOFF."""
+        """Largest squared lattice distance whose weight is nonzero (above H_CUTOFF)."""
+        if self.kind == "step":
+            return min(math.floor(sigma * sigma), self._d2_max)
         return min(int(2.0 * sigma * sigma * _LOG_CUTOFF), self._d2_max)
 
-    def neighbours(self, s: int, sigma: float) -> tuple[slice | np.ndarray, np.ndarray]:
-        """Neurons whose weight around winner ``s`` is above the cut-off, and their weights.
+    def weights(self, sigma: float) -> np.ndarray:
+        """weight[d²] for d² = 0 .. cutoff_radius2(σ), then one 0: (r²_cut + 2,)."""
+        table = self._tables.get(sigma)
+        if table is None:
+            r2 = self.cutoff_radius2(sigma)
+            if self.kind == "step":
+                table = np.ones(r2 + 2)
+            else:
+                table = np.exp(np.arange(r2 + 2, dtype=float) * (-0.5 / (sigma * sigma)))
+            table[-1] = 0.0
+            if len(self._tables) >= _MEMO_SIZE:  # σ(t) changes every trial: keep the last few
+                self._tables.clear()
+            self._tables[sigma] = table
+        return table
+
+    def box(self, s: int, r2: int) -> Box:
+        """The box of neurons within squared lattice distance r2 of neuron s (one slice per
+        axis; the corners beyond r2 included)."""
+        reach = math.isqrt(r2)
+        box = []
+        for n, stride in zip(self.shape, self._strides, strict=True):
+            c = s // stride % n
+            box.append(slice(max(c - reach, 0), min(c + reach + 1, n)))
+        return tuple(box)
+
+    def neighbours(self, s: int, sigma: float) -> tuple[Box, np.ndarray]:
+        """The box of neurons around winner ``s`` that holds every nonzero weight, and the
+        weights over it (0 at the box's corners beyond the cut-off).
 
         Returns:
-            index: ``slice(s, s + 1)`` for the winner alone, ``slice(None)`` for (most of) the
-                map, with h = 0 beyond the cut-off, else the neurons' indices, nearest first.
-            h: (K,) weights in the order of ``index``.
+            box: one slice per axis; ``view(array, box)`` are the box's rows of an (N, ...) array.
+            h: weights of shape ``box`` sizes, (b_1, ..., b_L).
         """
-        if self._memo_key == (s, sigma):  # the coarse move's σ' neighbourhood, again in learn
-            return self._memo
-        self._memo_key, self._memo = (s, sigma), self._neighbourhood(s, sigma)
-        return self._memo
-
-    def _neighbourhood(self, s: int, sigma: float) -> tuple[slice | np.ndarray, np.ndarray]:
+        key = (s, sigma)
+        found = self._memo.get(key)  # the coarse move's σ' neighbourhood, again in learn
+        if found is not None:
+            return found
         r2 = self.cutoff_radius2(sigma)
-        k = self._count[s, r2]
-        if k == 1:
-            return slice(s, s + 1), _ONE
-        scale = -0.5 / (sigma * sigma)
-        if k > self._whole:
-            d2 = self._d2[s]
-            h = np.exp(d2 * scale)
-            h[d2 > r2] = 0.0
-            return slice(None), h
-        return self._order[s, :k], np.exp(self._d2_sorted[s, :k] * scale)
+        box = self.box(s, r2)
+        offsets = tuple(
+            slice(b.start - c + n - 1, b.stop - c + n - 1)
+            for b, c, n in zip(box, self.coords[s].tolist(), self.shape, strict=True)
+        )
+        h = self.weights(sigma).take(np.minimum(self._offset_d2[offsets], r2 + 1))
+        h.flags.writeable = False  # shared by the callers that ask again
+        if len(self._memo) >= _MEMO_SIZE:
+            self._memo.clear()
+        self._memo[key] = box, h
+        return box, h
+
+    def view(self, array: np.ndarray, box: Box) -> np.ndarray:
+        """The rows of an (N, ...) array in ``box``: a view of shape (b_1, ..., b_L, ...)."""
+        return array.reshape(*self.shape, *array.shape[1:])[box]
 
     def distances2(self, winners: np.ndarray) -> np.ndarray:
         """Squared lattice distances of every neuron from each winner: (M,) -> (M, N)."""
-        d2 = np.empty((len(winners), len(self.coords)))
-        np.put_along_axis(d2, self._order[winners], self._d2_sorted[winners], axis=1)
+        d2 = np.zeros((len(winners), self.size), dtype=np.intp)
+        for c in self.coords.T:  # per axis: (M, N) += (r_a − s_a)²
+            d2 += (c[None, :] - c[winners][:, None]) ** 2
         return d2
 
     def within(self, s: int, radius: float) -> np.ndarray:

@@ -122,11 +122,6 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return view
 
 
-def _rows(array: np.ndarray, index: slice | np.ndarray) -> np.ndarray:
-    """The rows of ``array`` picked by a neighbourhood index: a view for a slice, else a copy."""
-    return array[index] if isinstance(index, slice) else array.take(index, axis=0)
-
-
 class VisuomotorSOM(Controller):
     """Kohonen lattice with joint outputs and local linear maps (see the module docstring).
 
@@ -334,13 +329,15 @@ class VisuomotorSOM(Controller):
         s = self._winner(u)
         self._last_winner = (u.tobytes(), self._version, s)
         if self.averaging == "neighbourhood":
-            idx, g = self._grid.neighbours(s, self.params()[3])
-            if len(g) > 1:
-                gn = g / g.sum()  # (K,)
-                a_k = _rows(self._A, idx)  # (K, J, D)
-                du = gn[:, None] * (u - _rows(self._w, idx))  # (K, D)
-                theta = gn @ _rows(self._th, idx) + np.einsum("kjd,kd->j", a_k, du)
-                return theta, (gn @ a_k.reshape(len(gn), -1)).reshape(a_k.shape[1:])
+            box, g = self._grid.neighbours(s, self.params()[3])
+            if g.size > 1:
+                K, (_, J, D) = g.size, self._A.shape
+                gn = g.ravel() / g.sum()  # (K,) the box's neurons, C order
+                a_k = self._grid.view(self._A, box).reshape(K, J * D)  # (K, J·D)
+                du = gn[:, None] * (u - self._grid.view(self._w, box).reshape(K, D))  # (K, D)
+                theta = gn @ self._grid.view(self._th, box).reshape(K, J)
+                theta += np.einsum("kjd,kd->j", a_k.reshape(K, J, D), du)
+                return theta, (gn @ a_k).reshape(J, D)
         a = self._A[s]
         return self._th[s] + a @ (u - self._w[s]), a.copy()
 
@@ -419,8 +416,7 @@ class VisuomotorSOM(Controller):
         if self.averaging == "winner" or r2 < 1:  # the winner alone
             return self._clip(self._th[s] + np.einsum("mjd,md->mj", self._A[s], U - self._w[s]))
         d2 = self._grid.distances2(s)  # (M, N) |r − s_m|²
-        G = np.exp(d2 * (-0.5 / (sigma * sigma)))  # (M, N)
-        G[d2 > r2] = 0.0
+        G = self._grid.weights(sigma).take(np.minimum(d2, r2 + 1))  # (M, N)
         G /= G.sum(1, keepdims=True)
         offset = self._th - np.einsum("njd,nd->nj", self._A, self._w)  # θ_r − A_r w_r, (N, J)
         GA = (G @ self._A.reshape(N, J * D)).reshape(M, J, D)  # Ā per target
@@ -503,20 +499,17 @@ class VisuomotorSOM(Controller):
         sigma_out: float,
     ) -> None:
         """w_r += ε h (u − w_r); θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
-        idx, h = self._grid.neighbours(s, sigma)  # index: a slice (view) or neuron indices
-        w_k = _rows(self._w, idx)  # (K, D), a view for a slice
-        w_k += (eps * h)[:, None] * (u - w_k)
-        self._w2[idx] = np.einsum("kd,kd->k", w_k, w_k)
-        if not isinstance(idx, slice):
-            self._w[idx] = w_k
-        idx, h = self._grid.neighbours(s, sigma_out)
-        step = eps_out * h  # (K,)
-        theta_k, a_k = _rows(self._th, idx), _rows(self._A, idx)  # (K, J), (K, J, D)
-        theta_k += step[:, None] * (theta_star - theta_k)
-        self._th[idx] = self._clip(theta_k)
-        a_k += step[:, None, None] * (a_star - a_k)
-        if not isinstance(idx, slice):
-            self._A[idx] = a_k
+        grid = self._grid
+        box, h = grid.neighbours(s, sigma)  # a box of the lattice, h = 0 at its far corners
+        w_k = grid.view(self._w, box)  # (*b, D) views: the updates write through
+        w_k += (eps * h)[..., None] * (u - w_k)
+        grid.view(self._w2, box)[...] = np.einsum("...d,...d->...", w_k, w_k)
+        box, h = grid.neighbours(s, sigma_out)
+        step = eps_out * h  # (*b,)
+        theta_k, a_k = grid.view(self._th, box), grid.view(self._A, box)  # (*b, J), (*b, J, D)
+        theta_k += step[..., None] * (theta_star - theta_k)
+        theta_k[...] = self._clip(theta_k)
+        a_k += step[..., None, None] * (a_star - a_k)
 
     def _learn_brause(
         self,
