@@ -74,6 +74,7 @@ from typing import Any
 
 import numpy as np
 
+from learners import kernels
 from learners.base import Controller, check_pixels
 from learners.lattice import Lattice
 from learners.persistence import CheckpointError, load_npz, save_npz
@@ -83,6 +84,7 @@ RULES = ("mrs", "brause")
 #: Trial protocols (see the module docstring): MRS with this project's additions, or Brause §3.
 PROTOCOLS = ("mrs", "brause")
 AVERAGING = ("neighbourhood", "winner")
+KERNELS = ("auto", "numba", "numpy")
 KIND = "VisuomotorSOM"
 FORMAT_VERSION = 1
 
@@ -114,6 +116,19 @@ DEFAULT_A_INIT = 0.1
 _BATCH_BLOCK = 64
 
 ScheduleLike = Schedule | tuple[float, float] | float
+
+
+def _kernel(name: str, axes: int) -> str:
+    """The hot path to use for a lattice of ``axes`` axes: "numba" or "numpy"."""
+    if name not in KERNELS:
+        raise ValueError(f"unknown kernel {name!r}; valid kernels: {', '.join(KERNELS)}")
+    compiled = kernels.available() and axes <= kernels.MAX_AXES
+    if name == "numba" and not compiled:
+        raise ValueError(
+            f'kernel="numba" needs numba (pip install "visuomotor[fast]") and a lattice of at '
+            f'most {kernels.MAX_AXES} axes (got {axes}); use kernel="numpy"'
+        )
+    return "numba" if name == "numba" or (name == "auto" and compiled) else "numpy"
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:
@@ -153,6 +168,8 @@ class VisuomotorSOM(Controller):
         continual: a :class:`~learners.schedules.Continual` to keep re-adapting after t_max
             when the sensed error rises (None: the standard schedules, floors from t_max on).
             It runs the schedules above back; Brause's protocol keeps its own rate γ.
+        kernel: "numba" (compiled hot path, ``learners/kernels.py``; needs the extra ``fast``
+            and at most 3 lattice axes), "numpy" (the reference) or "auto" (numba if it can).
     """
 
     def __init__(
@@ -179,6 +196,7 @@ class VisuomotorSOM(Controller):
         protocol: str = "mrs",
         gamma: ScheduleLike = DEFAULT_GAMMA,
         continual: Continual | None = None,
+        kernel: str = "auto",
     ) -> None:
         if protocol not in PROTOCOLS:
             raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
@@ -222,6 +240,8 @@ class VisuomotorSOM(Controller):
         if start.shape != (J,):
             raise ValueError(f"theta_init must have shape ({J},), got {start.shape}")
         self._grid = Lattice(self.lattice)
+        self.kernel = _kernel(kernel, len(self.lattice))
+        self._shape = np.array((1, 1, *self.lattice)[-3:], dtype=np.int64)  # 3-D, for the kernels
         self.coords = self._grid.coords  # (N, L) lattice coordinates of each neuron
         N = self.n_neurons
         self._w = self.rng.uniform(low, high, size=(N, D))  # (N, D)
@@ -303,6 +323,8 @@ class VisuomotorSOM(Controller):
 
     def _winner(self, u: np.ndarray) -> int:
         """argmin_r |u − w_r|² = argmin_r |w_r|² − 2 w_r·u."""
+        if self.kernel == "numba":
+            return kernels.winner(self._w, self._w2, u)
         return int((self._w2 - 2.0 * (self._w @ u)).argmin())
 
     # ----------------------------------------------------------------------------- acting
@@ -326,10 +348,19 @@ class VisuomotorSOM(Controller):
 
     def _coarse(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Unclipped coarse output (J,) and averaged A (J, D) for target u."""
+        sigma_out = self.params()[3]
+        r2 = self._grid.cutoff_radius2(sigma_out) if self.averaging == "neighbourhood" else 0
+        if self.kernel == "numba":
+            table = self._grid.weights(sigma_out)
+            s, theta, abar = kernels.coarse(
+                u, self._w, self._w2, self._th, self._A, table, r2, self._shape
+            )
+            self._last_winner = (u.tobytes(), self._version, s)
+            return theta, abar
         s = self._winner(u)
         self._last_winner = (u.tobytes(), self._version, s)
-        if self.averaging == "neighbourhood":
-            box, g = self._grid.neighbours(s, self.params()[3])
+        if r2 > 0:
+            box, g = self._grid.neighbours(s, sigma_out)
             if g.size > 1:
                 K, (_, J, D) = g.size, self._A.shape
                 gn = g.ravel() / g.sum()  # (K,) the box's neurons, C order
@@ -445,6 +476,15 @@ class VisuomotorSOM(Controller):
         u, v0, v1 = np.asarray(u, dtype=float), np.asarray(v0, dtype=float), np.asarray(v1, float)
         theta0, theta1 = np.asarray(theta0, dtype=float), np.asarray(theta1, dtype=float)
         fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
+        if (
+            self.kernel == "numba"
+            and self.protocol == "mrs"
+            and fast_ok
+            and v0.shape == (D,) == v1.shape
+        ):
+            learned = self._learn_compiled(u, theta0, v0, theta1, v1)
+            if learned is not None:
+                return learned  # else an input is not finite: the checks below say which
         if not (fast_ok and math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1)):
             check_pixels("u", u, D)  # the slow path, which names what is wrong
             check_pixels("theta0", theta0, J)
@@ -477,29 +517,52 @@ class VisuomotorSOM(Controller):
             self._learn_brause(s, u, theta0, theta1, v0, v1, dv / dv2)
             self.t += 1
             return True
-        a_s = self._A[s]  # (J, D), read before any update
-        if self.rule == "mrs":
-            theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
-        else:
-            theta_star = theta1 + a_s @ (self._w[s] - v1)
-        a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ dv, dv / dv2)  # (J, D)
-        self._update(s, u, theta_star, a_star, eps, sigma, eps_out, sigma_out)
+        self._update(s, u, theta0, v0, theta1, v1)
         self.t += 1
         return True
+
+    def _learn_compiled(
+        self, u: np.ndarray, theta0: np.ndarray, v0: np.ndarray, theta1: np.ndarray, v1: np.ndarray
+    ) -> bool | None:
+        """``learn`` in one kernel call for inputs of the right shapes: True (learned), False
+        (skipped, |Δv| < min_dv), None (an input not finite; nothing changed)."""
+        memo = self._last_winner
+        s = memo[2] if memo[1] == self._version and memo[0] == u.tobytes() else -1
+        eps, sigma, eps_out, sigma_out, _ = self.params()
+        status = kernels.learn(
+            s, self.rule == "mrs", u, theta0, v0, theta1, v1, self.min_dv,
+            self._w, self._w2, self._th, self._A, self.lower, self.upper,
+            eps, self._grid.weights(sigma), eps_out, self._grid.weights(sigma_out), self._shape,
+        )  # fmt: skip
+        if status == kernels.LEARNED:
+            self._version += 1
+            self.t += 1
+            return True
+        if status == kernels.SMALL_DV:
+            self.skipped["small_dv"] += 1
+            return False
+        return None
 
     def _update(
         self,
         s: int,
         u: np.ndarray,
-        theta_star: np.ndarray,
-        a_star: np.ndarray,
-        eps: float,
-        sigma: float,
-        eps_out: float,
-        sigma_out: float,
+        theta0: np.ndarray,
+        v0: np.ndarray,
+        theta1: np.ndarray,
+        v1: np.ndarray,
     ) -> None:
-        """w_r += ε h (u − w_r); θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
+        """θ*, A* from the map before the update, then w_r += ε h (u − w_r);
+        θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
+        eps, sigma, eps_out, sigma_out, _ = self.params()
         grid = self._grid
+        dv = v1 - v0  # (D,)
+        a_s = self._A[s]  # (J, D), read before any update
+        if self.rule == "mrs":
+            theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
+        else:
+            theta_star = theta1 + a_s @ (self._w[s] - v1)
+        a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ dv, dv / (dv @ dv))  # (J, D)
         box, h = grid.neighbours(s, sigma)  # a box of the lattice, h = 0 at its far corners
         w_k = grid.view(self._w, box)  # (*b, D) views: the updates write through
         w_k += (eps * h)[..., None] * (u - w_k)

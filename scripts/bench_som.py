@@ -3,30 +3,38 @@
 Rows of the table:
   * full trials/s: ``act(u)`` + ``act(u, v0, explore=True)`` + ``learn(u, θ0, v0, θ1, v1)`` over
     one whole training schedule (t = 0 .. t_max, so wide and narrow neighbourhoods both count),
-    and over trials after t_max (the narrowest neighbourhood), inputs precomputed, no env;
-  * act_batch targets/s: coarse commands for a block of targets at once;
+    and over trials after t_max (the narrowest neighbourhood), inputs precomputed, no env; for
+    each kernel (numba when installed, and the numpy reference);
   * MiniSom winner + update/s on a 2-D lattice with the same number of neurons and 4-D inputs.
-Each figure is the best of ``--repeats`` runs (the machine is shared). Writes ``bench_som.json``.
+    Map and peer take turns on blocks of ``--block`` trials, so a change in the load of the
+    shared machine hits both; the ratios are of the summed times;
+  * act_batch targets/s: coarse commands for a block of targets at once;
+  * a large lattice (``--big``, default 40×40×40): construction time, memory held (peak of
+    numpy allocations while constructing and training, from tracemalloc) and trials/s.
+Writes ``bench_som.json``.
 
-    python scripts/bench_som.py [--trials 10000] [--out runs/bench_som]
+    python scripts/bench_som.py [--trials 10000] [--big 40 40 40] [--out runs/bench_som]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
 
+from learners import kernels
 from learners.som import VisuomotorSOM
 from models.riacs import LOWER, UPPER
 
 IMAGE_SIZE = np.array([320.0, 240.0, 320.0, 240.0])  #: input box of the random pixels (px)
 COARSE_ERROR_PX = 5.0  #: std of the simulated sensed position after the coarse move (px)
 FINE_ERROR_PX = 1.0  #: ... and after the fine move (px)
-MINISOM_SHAPE = (21, 16)  #: 336 neurons, as the default 12 × 7 × 4 lattice
+MIB = 2**20  #: bytes
 
 
 def _inputs(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -38,91 +46,120 @@ def _inputs(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, n
     )
 
 
-def _som(lattice: tuple[int, ...], trials: int, seed: int) -> VisuomotorSOM:
+def _som(lattice: tuple[int, ...], trials: int, seed: int, kernel: str) -> VisuomotorSOM:
     return VisuomotorSOM(
-        LOWER, UPPER, lattice=lattice, t_max=trials, rng=seed, input_high=IMAGE_SIZE
+        LOWER, UPPER, lattice=lattice, t_max=trials, rng=seed, input_high=IMAGE_SIZE, kernel=kernel
     )
 
 
+def minisom_shape(neurons: int) -> tuple[int, int]:
+    """The most nearly square 2-D lattice with exactly ``neurons`` neurons (336 -> 21 × 16)."""
+    rows = max(r for r in range(1, math.isqrt(neurons) + 1) if neurons % r == 0)
+    return neurons // rows, rows
+
+
 def time_trials(som: VisuomotorSOM, U: np.ndarray, V0: np.ndarray, V1: np.ndarray) -> float:
-    """Full trials per second on the given inputs."""
+    """Seconds for full trials on the given inputs."""
     start = time.perf_counter()
     for u, v0, v1 in zip(U, V0, V1, strict=True):
         som.reset()
         theta0 = som.act(u)
         theta1 = som.act(u, v0, explore=True)
         som.learn(u, theta0, v0, theta1, v1)
-    return len(U) / (time.perf_counter() - start)
+    return time.perf_counter() - start
 
 
-def time_minisom(U: np.ndarray, seed: int) -> float:
-    """MiniSom winner + update per second, one pass over U."""
-    from minisom import MiniSom
+class Peer:
+    """MiniSom on the same number of neurons, trained over the same inputs (its own schedule)."""
 
-    som = MiniSom(*MINISOM_SHAPE, U.shape[1], sigma=2.0, learning_rate=1.0, random_seed=seed)
-    som.random_weights_init(U[:1000])
+    def __init__(self, neurons: int, U: np.ndarray, seed: int) -> None:
+        from minisom import MiniSom
+
+        self.shape = minisom_shape(neurons)
+        self.som = MiniSom(*self.shape, U.shape[1], sigma=2.0, learning_rate=1.0, random_seed=seed)
+        self.som.random_weights_init(U[:1000])
+        self.t, self.t_max = 0, len(U)
+
+    def time(self, U: np.ndarray) -> float:
+        """Seconds for winner + update on each row of U."""
+        start = time.perf_counter()
+        for u in U:
+            self.som.update(u, self.som.winner(u), self.t, self.t_max)
+            self.t += 1
+        return time.perf_counter() - start
+
+
+def interleaved(som: VisuomotorSOM, peer: Peer, inputs, block: int) -> tuple[float, float]:
+    """Seconds of the map's trials and of the peer's updates, taking turns block by block."""
+    ours = theirs = 0.0
+    for i in range(0, len(inputs[0]), block):
+        ours += time_trials(som, *(x[i : i + block] for x in inputs))
+        theirs += peer.time(inputs[0][i : i + block])
+    return ours, theirs
+
+
+def big_lattice(lattice: tuple[int, ...], trials: int, seed: int, kernel: str) -> dict:
+    """Construction seconds, peak MiB of numpy allocations, and trials/s over a schedule."""
+    inputs = _inputs(np.random.default_rng(seed), trials)
+    tracemalloc.start()
     start = time.perf_counter()
-    for t, u in enumerate(U):
-        som.update(u, som.winner(u), t, len(U))
-    return len(U) / (time.perf_counter() - start)
+    som = _som(lattice, trials, seed, kernel)
+    built = time.perf_counter() - start
+    seconds = time_trials(som, *inputs)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return {"construct_s": built, "peak_mib": peak / MIB, "trials_per_s": trials / seconds}
 
 
-def main(argv: list[str] | None = None) -> dict[str, float]:
+def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--trials", type=int, default=10_000, help="trials = t_max of the run")
+    parser.add_argument("--block", type=int, default=500, help="trials per turn of map and peer")
     parser.add_argument("--batch", type=int, default=10_000, help="targets per act_batch call")
     parser.add_argument("--lattice", type=int, nargs="+", default=[12, 7, 4])
-    parser.add_argument("--repeats", type=int, default=3, help="best of this many runs")
+    parser.add_argument("--big", type=int, nargs="*", default=[40, 40, 40], help="none: skip")
+    parser.add_argument("--big-trials", type=int, default=2000, help="t_max of the big lattice")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=Path("runs/bench_som"))
     args = parser.parse_args(argv)
-    lattice = tuple(args.lattice)
-    U, V0, V1 = _inputs(np.random.default_rng(args.seed), args.trials)
-    schedule, late, batch, peer = [], [], [], []
-    for _ in range(args.repeats):
-        som = _som(lattice, args.trials, args.seed)
-        schedule.append(time_trials(som, U, V0, V1))  # t = 0 .. t_max
-        late.append(time_trials(som, U, V0, V1))  # t > t_max: winner-only updates
+    lattice, n = tuple(args.lattice), math.prod(args.lattice)
+    inputs = _inputs(np.random.default_rng(args.seed), args.trials)
+    result: dict = {"neurons": n, "trials": args.trials, "minisom_shape": minisom_shape(n)}
+    rows = []
+    for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):
+        time_trials(_som(lattice, 3, args.seed, kernel), *(x[:3] for x in inputs))  # compiles
+        for phase in ("schedule", "after_t_max"):
+            if phase == "schedule":
+                som, peer = _som(lattice, args.trials, args.seed, kernel), Peer(n, inputs[0], 0)
+            ours, theirs = interleaved(som, peer, inputs, args.block)  # after: t > t_max
+            key = f"{kernel}_{phase}"
+            result[key] = {
+                "trials_per_s": args.trials / ours,
+                "minisom_updates_per_s": args.trials / theirs,
+                "ratio": theirs / ours,
+            }
+            when = "t = 0..t_max" if phase == "schedule" else "t > t_max"
+            rows.append((f"{kernel}: full trial, {when}", args.trials / ours, theirs / ours))
+        U = np.resize(inputs[0], (args.batch, 4))
         start = time.perf_counter()
-        som.act_batch(np.resize(U, (args.batch, 4)))
-        batch.append(args.batch / (time.perf_counter() - start))
-        peer.append(time_minisom(U, args.seed))
-    n = int(np.prod(lattice))
-    result = {
-        "neurons": n,
-        "trials": args.trials,
-        "full_trials_per_s": max(schedule),
-        "full_trials_per_s_after_t_max": max(late),
-        "act_batch_targets_per_s": max(batch),
-        "minisom_updates_per_s": max(peer),
-        "ratio_full_trial_to_minisom_update": max(schedule) / max(peer),
-    }
-    rows = [
-        (
-            f"VisuomotorSOM {'x'.join(map(str, lattice))} full trial, t = 0..t_max",
-            "trials/s",
-            result["full_trials_per_s"],
-        ),
-        (
-            "VisuomotorSOM full trial, t > t_max",
-            "trials/s",
-            result["full_trials_per_s_after_t_max"],
-        ),
-        (
-            f"VisuomotorSOM act_batch ({args.batch} targets)",
-            "targets/s",
-            result["act_batch_targets_per_s"],
-        ),
-        (
-            f"MiniSom {MINISOM_SHAPE[0]}x{MINISOM_SHAPE[1]} winner + update",
-            "updates/s",
-            result["minisom_updates_per_s"],
-        ),
-    ]
-    print(f"{'what (' + str(n) + ' neurons, 4-D input)':<52} {'unit':>10} {'rate':>12}")
-    for what, unit, rate in rows:
-        print(f"{what:<52} {unit:>10} {rate:>12,.0f}")
-    print(f"ratio full trial / MiniSom update: {result['ratio_full_trial_to_minisom_update']:.2f}")
+        som.act_batch(U)
+        rows.append(
+            (f"{kernel}: act_batch targets", args.batch / (time.perf_counter() - start), None)
+        )
+    peer_shape = "x".join(map(str, result["minisom_shape"]))
+    print(f"{n} neurons ({'x'.join(map(str, lattice))}), 4-D input; peer: MiniSom {peer_shape} "
+          "winner + update, same run, same blocks")  # fmt: skip
+    print(f"{'what':<44} {'per s':>12} {'/ MiniSom':>10}")
+    for what, rate, ratio in rows:
+        print(f"{what:<44} {rate:>12,.0f} {'' if ratio is None else f'{ratio:.2f}':>10}")
+    if args.big:
+        big = tuple(args.big)
+        for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):
+            figures = big_lattice(big, args.big_trials, args.seed, kernel)
+            result[f"big_{kernel}"] = {"lattice": list(big), **figures}
+            print(f"{kernel}: {'x'.join(map(str, big))} = {math.prod(big):,} neurons: constructs "
+                  f"in {figures['construct_s']:.3f} s, holds {figures['peak_mib']:.0f} MiB, "
+                  f"{figures['trials_per_s']:,.0f} trials/s, t = 0..{args.big_trials}")  # fmt: skip
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "bench_som.json").write_text(json.dumps(result, indent=2) + "\n")
     return result

@@ -1,0 +1,86 @@
+"""The compiled hot path (numba) against the numpy reference over 1,000 trials, and its guards.
+
+Tolerance: the kernels make the same elementwise updates in the same order, so w (and with it
+every winner) must match bit for bit. The output averaging sums over up to N neurons in another
+order than numpy's dot products; each sum then differs by at most ~K ulp of its largest term
+(K ≤ 336 terms of |θ| < 4 rad: ~3e-13), and every later update is a convex combination
+θ_r ← (1 − ε'h)θ_r + ε'h θ*, which does not grow a difference. 1e-12 rad bounds that with room;
+the measured difference over 1,000 trials is ~1e-15.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from learners import kernels
+from learners.som import VisuomotorSOM
+from models.riacs import LOWER, UPPER
+
+pytestmark = pytest.mark.skipif(
+    not kernels.available(), reason="numba not installed (pip install 'visuomotor[fast]')"
+)
+IMAGE = np.array([320.0, 240.0, 320.0, 240.0])  # px
+TOLERANCE = 1e-12  # rad, and rad/px for A (see the module docstring)
+
+
+def inputs(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    U = rng.uniform(0.0, IMAGE, size=(n, 4))
+    return U, U + rng.normal(0.0, 5.0, U.shape), U + rng.normal(0.0, 1.0, U.shape)
+
+
+def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarray]:
+    """A map trained on ``trials`` trials (t_max = 2/3 of them, so both phases count), and
+    every command it gave, (trials, 3, J): coarse, fine, second fine."""
+    som = VisuomotorSOM(
+        LOWER, UPPER, t_max=2 * trials // 3, rng=3, input_high=IMAGE, kernel=kernel, **kw
+    )
+    commands = []
+    for u, v0, v1 in zip(*inputs(trials), strict=True):
+        som.reset()
+        theta0 = som.act(u)
+        theta1 = som.act(u, v0, explore=True)
+        commands.append([theta0, theta1, som.act(u, v1)])
+        som.learn(u, theta0, v0, theta1, v1)
+    return som, np.array(commands)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"rule": "brause"}, {"averaging": "winner"}, {"lattice": (17, 9)}, {"lattice": (5, 4, 3)}],
+)
+def test_compiled_path_equals_the_numpy_reference_over_1000_trials(options):
+    fast, fast_commands = run("numba", **options)
+    ref, ref_commands = run("numpy", **options)
+    np.testing.assert_array_equal(fast.w, ref.w)  # the same winners all along
+    np.testing.assert_allclose(fast.theta, ref.theta, rtol=0, atol=TOLERANCE)
+    np.testing.assert_allclose(fast.A, ref.A, rtol=0, atol=TOLERANCE)
+    np.testing.assert_allclose(fast_commands, ref_commands, rtol=0, atol=TOLERANCE)
+    assert fast.t == ref.t and fast.skipped == ref.skipped
+    U = inputs(200, seed=1)[0]
+    np.testing.assert_allclose(fast.act_batch(U), ref.act_batch(U), rtol=0, atol=TOLERANCE)
+
+
+@pytest.mark.parametrize("kernel", ["numba", "numpy"])
+def test_bad_and_skipped_trials_are_handled_alike(kernel):
+    som = VisuomotorSOM(LOWER, UPPER, t_max=10, rng=0, input_high=IMAGE, kernel=kernel)
+    u, v0, v1 = (x[0] for x in inputs(1))
+    theta = np.array([0.5, 0.5, 1.0])
+    before = som.w.copy(), som.theta.copy(), som.A.copy()
+    with pytest.raises(ValueError, match="theta1"):
+        som.learn(u, theta, v0, [0.5, np.nan, 1.0], v1)
+    assert som.learn(u, theta, v0, theta, [np.nan, 1.0, 2.0, 3.0]) is False
+    assert som.learn(u, theta, v0, theta, v0 + 1e-5) is False
+    assert som.skipped == {"not_visible": 1, "small_dv": 1} and som.t == 0
+    for array, old in zip((som.w, som.theta, som.A), before, strict=True):
+        np.testing.assert_array_equal(array, old)
+
+
+def test_kernel_choice_is_checked():
+    with pytest.raises(ValueError, match="auto, numba, numpy"):
+        VisuomotorSOM(LOWER, UPPER, kernel="cuda")
+    with pytest.raises(ValueError, match="at most 3 axes"):
+        VisuomotorSOM(LOWER, UPPER, lattice=(2, 2, 2, 2), kernel="numba")
+    assert VisuomotorSOM(LOWER, UPPER, lattice=(2, 2, 2, 2)).kernel == "numpy"
+    assert VisuomotorSOM(LOWER, UPPER).kernel == "numba"
