@@ -4,6 +4,7 @@ the neighbourhood update, each one loop over the neurons of the winner's box.
 They compute the same formulas as the numpy reference in ``learners/som.py``, term by term:
     winner   s = argmin_r |w_r|² − 2 w_r·u
     coarse   θ0 = Σ_r g_r (θ_r + A_r (u − w_r)),  Ā = Σ_r g_r A_r,  g = h'/Σh'
+    fine     θ_{k+1} = θ_k + Ā (u − v_k), Ā refined by a Broyden step
     learn    θ*, A* from the trial; w_r += ε h_r (u − w_r), |w_r|² refreshed;
              θ_r += ε' h'_r (θ* − θ_r) clipped; A_r += ε' h'_r (A* − A_r)
 with h = weight[d²] from the lattice's table (0 beyond the cut-off). The elementwise updates
@@ -123,6 +124,46 @@ def coarse(
                 abar[j, d] += g * A[r, j, d]
             out[j] += g * acc
     return s, out / total, abar / total
+
+
+@_jit
+def fine(
+    u: np.ndarray,
+    v: np.ndarray,
+    cmd: np.ndarray,
+    abar: np.ndarray,
+    v_before: np.ndarray,
+    cmd_before: np.ndarray,
+    refine: bool,
+    min_dv: float,
+    noise: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> np.ndarray:
+    """Next fine command clip(θ_k + Ā (u − v_k) + noise) (J,); with ``refine`` Ā first takes
+    the Broyden step Ā += (Δθ − Ā Δv) Δv^T / |Δv|² of the previous fine move, in place, when
+    |Δv| ≥ min_dv (Δθ = cmd − cmd_before, Δv = v − v_before)."""
+    J, D = abar.shape
+    if refine:
+        dv = v - v_before
+        dv2 = 0.0
+        for d in range(D):
+            dv2 += dv[d] * dv[d]
+        if dv2 >= min_dv * min_dv:
+            for j in range(J):
+                res = 0.0
+                for d in range(D):
+                    res += abar[j, d] * dv[d]
+                res = (cmd[j] - cmd_before[j]) - res
+                for d in range(D):
+                    abar[j, d] += res * (dv[d] / dv2)
+    out = np.empty(J)
+    for j in range(J):
+        acc = 0.0
+        for d in range(D):
+            acc += abar[j, d] * (u[d] - v[d])
+        out[j] = min(max(cmd[j] + acc + noise[j], lower[j]), upper[j])
+    return out
 
 
 @_jit

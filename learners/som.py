@@ -242,6 +242,7 @@ class VisuomotorSOM(Controller):
         self._grid = Lattice(self.lattice)
         self.kernel = _kernel(kernel, len(self.lattice))
         self._shape = np.array((1, 1, *self.lattice)[-3:], dtype=np.int64)  # 3-D, for the kernels
+        self._zeros = np.zeros(self.n_joints)  # no exploration noise, for the kernels
         self.coords = self._grid.coords  # (N, L) lattice coordinates of each neuron
         N = self.n_neurons
         self._w = self.rng.uniform(low, high, size=(N, D))  # (N, D)
@@ -398,6 +399,8 @@ class VisuomotorSOM(Controller):
                 raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
             if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
                 self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
+            if self.kernel == "numba":
+                return self._fine_compiled(u, v, explore)
             if self.refine and self._v is not None:
                 dv = v - self._v
                 dv2 = float(dv @ dv)
@@ -420,6 +423,18 @@ class VisuomotorSOM(Controller):
         self._last_winner = (u.tobytes(), self._version, s)
         theta = self._th[s] if v is None else self._th[s] + self._A[s] @ (u - self._w[s])
         self._cmd = self._clip(theta)
+        return self._cmd.copy()
+
+    def _fine_compiled(self, u: np.ndarray, v: np.ndarray, explore: bool) -> np.ndarray:
+        """The fine move of ``act`` in one kernel call (same formulas, same noise draws)."""
+        std = self.params()[4]
+        noise = self.rng.normal(0.0, std, size=self.n_joints) if explore and std > 0 else None
+        refine = self.refine and self._v is not None
+        self._cmd, self._cmd_before, self._v = kernels.fine(
+            u, v, self._cmd, self._abar, self._v if refine else v,
+            self._cmd_before if refine else self._cmd, refine, self.min_dv,
+            self._zeros if noise is None else noise, self.lower, self.upper,
+        ), self._cmd, v.copy()  # fmt: skip
         return self._cmd.copy()
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
