@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 # Headless rendering: EGL (Mesa llvmpipe without a GPU) unless the caller chose a back-end.
 export MUJOCO_GL ?= egl
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench clean test-sweep sweep-demo
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,20 @@ test: $(VENV)/.installed
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .
 	$(BIN)/ruff check .
+
+# Sweeps on Ray: the extra "sweep" in the same venv.
+$(VENV)/.sweep: $(VENV)/.installed
+	$(BIN)/python -m pip install --quiet -e ".[dev,sweep]"
+	touch $@
+
+test-sweep: $(VENV)/.sweep
+	$(BIN)/python -m pytest -q -rs tests/test_sweep.py
+
+# 2 arms × 4 lattice sizes × 2 seeds, short training, on a local Ray instance (2 CPUs).
+sweep-demo: $(VENV)/.sweep
+	$(BIN)/python scripts/sweep.py --grid robot=riacs,puma --grid lattice=3,4,6,8 \
+		--grid seed=0,1 --grid trials=1500 --grid eval_trials=100 --grid eval_every=500 \
+		--out runs/sweep-demo
 
 bench: $(VENV)/.installed
 	$(BIN)/python scripts/bench.py all

@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from envs.evaluation import evaluate
+from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.trials import learn_from, run_trial
 from learners.persistence import CheckpointError, write_atomic
 from learners.som import VisuomotorSOM
@@ -41,9 +42,17 @@ class RunConfig:
     eval_every: int = 1000
     eval_trials: int = 200
     fine_moves: int = 2
+    refine: bool = True
+    image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH)  # sensing images, px
+
+    def __post_init__(self) -> None:  # tuples also when read back from JSON lists
+        object.__setattr__(self, "lattice", tuple(int(n) for n in self.lattice))
+        object.__setattr__(self, "image_size", tuple(int(n) for n in self.image_size))
 
     def make_env(self, seed_offset: int = 0) -> gym.Env:
-        env = gym.make(self.env, sensing=self.sensing, control=self.control)
+        env = gym.make(
+            self.env, sensing=self.sensing, control=self.control, image_size=self.image_size
+        )
         env.reset(seed=self.seed + seed_offset)
         return env
 
@@ -63,6 +72,7 @@ def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
         lattice=config.lattice,
         rule=config.rule,
         protocol=config.protocol,
+        refine=config.refine,
         t_max=config.trials,
         rng=rng,
         input_low=pixels.min(axis=0),

@@ -1,0 +1,147 @@
+"""Sweeps: grid expansion and all-trials-counted errors; on a local Ray instance, a 2-cell sweep
+gives the same table as running the cells directly, finished cells are skipped, and a worker
+killed mid-cell (SIGKILL) is retried and resumes to the result of an unbroken sweep."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import envs  # noqa: F401  (GL back-end before mujoco)
+from envs.sweep import (
+    ATTEMPTS_FILE,
+    CELL_FILE,
+    PROGRESS_FILE,
+    cell_name,
+    errors_all_counted,
+    expand,
+    run_cell,
+)
+from envs.training import METRICS_FILE, RunConfig
+
+GRID = {"robot": "riacs", "lattice": [3, "4x3x2"], "trials": 1200, "eval_trials": 30}
+GRID.update({"eval_every": 400})
+CHECKPOINT_EVERY = 100  # trials
+TIMEOUT_S = 300.0
+VOLATILE = {"seconds_last_attempt"}  # wall time differs between runs
+
+
+# ----------------------------------------------------------------------------- without Ray
+def test_grid_expands_to_every_combination_with_parsed_values():
+    configs = expand({"robot": ["riacs", "puma"], "lattice": [3, "12x7x4"], "seed": [0, "1"]})
+    assert len(configs) == 8
+    assert {c.env for c in configs} == {"RiacsReach-v0", "PumaReach-v0"}
+    assert {c.lattice for c in configs} == {(3, 3, 3), (12, 7, 4)}
+    assert {c.seed for c in configs} == {0, 1}
+    assert expand({"refine": "false", "image_size": "480x640"})[0] == RunConfig(
+        refine=False, image_size=(480, 640)
+    )
+    assert len({cell_name(c) for c in configs}) == 8  # one folder per cell
+
+
+def test_bad_grids_name_what_is_valid():
+    with pytest.raises(ValueError, match="valid axes"):
+        expand({"neurons": [27]})
+    with pytest.raises(ValueError, match="riacs, puma"):
+        expand({"robot": "kuka"})
+    with pytest.raises(ValueError, match="true or false"):
+        expand({"refine": "maybe"})
+
+
+def test_stopped_trials_keep_their_last_distance():
+    d = np.array([[3.0, 2.0, 1.0], [5.0, np.nan, np.nan], [4.0, 2.0, np.nan]])
+    np.testing.assert_array_equal(
+        errors_all_counted(d), [[3.0, 2.0, 1.0], [5.0, 5.0, 5.0], [4.0, 2.0, 2.0]]
+    )
+
+
+# ----------------------------------------------------------------------------- on Ray
+@pytest.fixture(scope="module")
+def ray_local():
+    ray = pytest.importorskip("ray", reason="ray not installed (make test-sweep installs it)")
+    from envs.sweep_runner import start_ray
+
+    start_ray(None, num_cpus=2)
+    yield ray
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def unbroken(ray_local, tmp_path_factory):
+    from envs.sweep_runner import run_sweep
+
+    out = tmp_path_factory.mktemp("unbroken")
+    rows = run_sweep(expand(GRID), out, checkpoint_every=CHECKPOINT_EVERY, log=lambda s: None)
+    return out, rows
+
+
+def _same(a: dict, b: dict) -> bool:
+    return {k: v for k, v in a.items() if k not in VOLATILE} == {
+        k: v for k, v in b.items() if k not in VOLATILE
+    }
+
+
+def test_two_cell_sweep_table_equals_running_the_cells_directly(unbroken, tmp_path):
+    out, rows = unbroken
+    assert len(rows) == 2
+    table = json.loads((out / "results.json").read_text())
+    csv_lines = (out / "results.csv").read_text().splitlines()
+    assert len(csv_lines) == 3 and csv_lines[0].startswith("cell,")
+    for config, row in zip(expand(GRID), table, strict=True):
+        direct = run_cell(config, tmp_path / cell_name(config), CHECKPOINT_EVERY)
+        assert _same(direct, row)
+        assert row["eval_trials"] == config.eval_trials and len(row["mean_mm"]) == 3
+
+
+def test_finished_cells_are_skipped(unbroken):
+    from envs.sweep_runner import run_sweep
+
+    out, rows = unbroken
+    lines = []
+    again = run_sweep(expand(GRID), out, checkpoint_every=CHECKPOINT_EVERY, log=lines.append)
+    assert "2 finished before, 0 to run" in lines[0] and again == rows
+
+
+def test_worker_killed_mid_cell_is_retried_and_resumes_to_the_unbroken_result(unbroken, tmp_path):
+    from envs.sweep_runner import run_sweep
+
+    out, rows = unbroken
+    configs = expand(GRID)
+    victim = tmp_path / "cells" / cell_name(configs[1])
+    result: dict = {}
+    sweep = threading.Thread(
+        target=lambda: result.update(
+            rows=run_sweep(configs, tmp_path, checkpoint_every=CHECKPOINT_EVERY, log=print)
+        )
+    )
+    sweep.start()
+    deadline = time.monotonic() + TIMEOUT_S
+    while time.monotonic() < deadline:  # wait for a checkpoint past the first
+        progress = victim / PROGRESS_FILE
+        if progress.exists() and json.loads(progress.read_text())["trial"] >= CHECKPOINT_EVERY:
+            break
+        time.sleep(0.02)
+    state = json.loads((victim / PROGRESS_FILE).read_text())
+    assert state["trial"] < configs[1].trials, "the cell finished before it could be killed"
+    os.kill(state["pid"], signal.SIGKILL)
+    sweep.join(TIMEOUT_S)
+    assert not sweep.is_alive()
+    attempts = [json.loads(r) for r in (victim / ATTEMPTS_FILE).read_text().splitlines()]
+    assert len(attempts) == 2 and attempts[0]["pid"] == state["pid"] != attempts[1]["pid"]
+    assert CHECKPOINT_EVERY <= attempts[1]["start_trial"] < configs[1].trials  # resumed
+    assert all(_same(a, b) for a, b in zip(result["rows"], rows, strict=True))
+    unbroken_cell = out / "cells" / victim.name
+    assert (victim / METRICS_FILE).read_text() == (unbroken_cell / METRICS_FILE).read_text()
+    assert (victim / CELL_FILE).exists()
+
+
+def test_configs_differ_only_where_the_grid_says():
+    a, b = expand(GRID)
+    assert replace(a, lattice=b.lattice) == b
