@@ -21,10 +21,11 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import os
 import shutil
 import time
-from dataclasses import asdict, fields
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -66,7 +67,16 @@ def parse_value(axis: str, value: Any) -> Any:
 
 
 def expand(grid: dict[str, Any]) -> list[RunConfig]:
-    """All cells of ``grid`` (axis -> value or list of values), in a fixed order."""
+    """All cells of ``grid`` (axis -> value or list of values), in a fixed order.
+
+    ``trials_per_neuron`` k (one value) raises each cell's trials to at least k·N."""
+    grid = dict(grid)
+    per_neuron = grid.pop("trials_per_neuron", 0)
+    if isinstance(per_neuron, list):
+        if len(per_neuron) != 1:
+            raise ValueError(f"trials_per_neuron takes one value, got {per_neuron}")
+        per_neuron = per_neuron[0]
+    per_neuron = float(per_neuron)
     valid = {*_fields(), "robot"}
     unknown = sorted(set(grid) - valid)
     if unknown:
@@ -76,8 +86,9 @@ def expand(grid: dict[str, Any]) -> list[RunConfig]:
     axes = {k: v if isinstance(v, list) else [v] for k, v in grid.items()}
     values = [[parse_value(k, v) for v in vs] for k, vs in axes.items()]
     names = ["env" if k == "robot" else k for k in axes]
+    configs = [RunConfig(**dict(zip(names, c, strict=True))) for c in itertools.product(*values)]
     return [
-        RunConfig(**dict(zip(names, combo, strict=True))) for combo in itertools.product(*values)
+        replace(c, trials=max(c.trials, round(per_neuron * math.prod(c.lattice)))) for c in configs
     ]
 
 

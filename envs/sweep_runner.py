@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 from collections.abc import Callable
 from dataclasses import asdict
@@ -90,6 +91,7 @@ def run_sweep(
         start_ray(address, num_cpus)
     try:
         task = ray.remote(num_cpus=1, max_retries=retries)(_cell_task)
+        todo.sort(key=lambda cell: -cell[0].trials * math.prod(cell[0].lattice))  # long first
         pending = {task.remote(asdict(c), str(f), checkpoint_every): f for c, f in todo}
         failed: list[str] = []
         while pending:

@@ -44,6 +44,8 @@ def test_grid_expands_to_every_combination_with_parsed_values():
         refine=False, image_size=(480, 640)
     )
     assert len({cell_name(c) for c in configs}) == 8  # one folder per cell
+    scaled = expand({"lattice": [3, 20], "trials": 1000, "trials_per_neuron": ["4"]})
+    assert [c.trials for c in scaled] == [1000, 4 * 20**3]
 
 
 def test_bad_grids_name_what_is_valid():
