@@ -116,16 +116,18 @@ def run_sweep(
     return rows
 
 
-def _progress(running, configs: list[RunConfig], folders: list[Path]) -> str:
-    """One line: cells finished, and the checkpointed trial of each running cell."""
+def _progress(pending, configs: list[RunConfig], folders: list[Path]) -> str:
+    """One line: cells finished, the checkpointed trial of each started cell, cells waiting."""
     trials = {f: c.trials for c, f in zip(configs, folders, strict=True)}
     done = sum((f / CELL_FILE).exists() for f in folders)
-    parts = []
-    for folder in running:
-        path = folder / PROGRESS_FILE
-        trial = json.loads(path.read_text())["trial"] if path.exists() else 0
-        parts.append(f"{folder.name[:28]} {trial}/{trials[folder]}")
-    return f"[{done}/{len(folders)} done] " + "; ".join(parts)
+    started = [f for f in pending if (f / PROGRESS_FILE).exists()]
+    parts = [
+        f"{f.name.rsplit('_', 1)[0]} {json.loads((f / PROGRESS_FILE).read_text())['trial']}"
+        f"/{trials[f]}"
+        for f in started
+    ]
+    waiting = len(pending) - len(started)
+    return f"[{done}/{len(folders)} done] " + "; ".join([*parts, f"{waiting} not checkpointed yet"])
 
 
 def write_table(rows: list[dict[str, Any]], out: Path) -> None:
