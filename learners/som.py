@@ -532,7 +532,13 @@ class VisuomotorSOM(Controller):
             self._learn_brause(s, u, theta0, theta1, v0, v1, dv / dv2)
             self.t += 1
             return True
-        self._update(s, u, theta0, v0, theta1, v1)
+        a_s = self._A[s]  # (J, D), read before any update
+        if self.rule == "mrs":
+            theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
+        else:
+            theta_star = theta1 + a_s @ (self._w[s] - v1)
+        a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ dv, dv / dv2)  # (J, D)
+        self._update(s, u, theta_star, a_star, eps, sigma, eps_out, sigma_out)
         self.t += 1
         return True
 
@@ -562,22 +568,15 @@ class VisuomotorSOM(Controller):
         self,
         s: int,
         u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
+        theta_star: np.ndarray,
+        a_star: np.ndarray,
+        eps: float,
+        sigma: float,
+        eps_out: float,
+        sigma_out: float,
     ) -> None:
-        """θ*, A* from the map before the update, then w_r += ε h (u − w_r);
-        θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
-        eps, sigma, eps_out, sigma_out, _ = self.params()
+        """w_r += ε h (u − w_r); θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
         grid = self._grid
-        dv = v1 - v0  # (D,)
-        a_s = self._A[s]  # (J, D), read before any update
-        if self.rule == "mrs":
-            theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
-        else:
-            theta_star = theta1 + a_s @ (self._w[s] - v1)
-        a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ dv, dv / (dv @ dv))  # (J, D)
         box, h = grid.neighbours(s, sigma)  # a box of the lattice, h = 0 at its far corners
         w_k = grid.view(self._w, box)  # (*b, D) views: the updates write through
         w_k += (eps * h)[..., None] * (u - w_k)
