@@ -29,6 +29,9 @@ def groups(rows: list[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
     """Rows grouped by every setting except lattice and seed; the label names the settings
     that differ between groups."""
     keys = sorted({k for row in rows for k in row} - _NOT_GROUPING)
+    pairs = {(str(row.get("lattice")), row.get("trials")) for row in rows}
+    if len(pairs) == len({p[0] for p in pairs}):  # trials follow the lattice (trials_per_neuron)
+        keys.remove("trials")
     varying = [k for k in keys if len({str(row.get(k)) for row in rows}) > 1] or ["robot"]
     out: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for row in rows:
@@ -74,6 +77,9 @@ def error_vs_neurons(rows: list[dict[str, Any]], path: Path) -> Path:
         twin.set_ylim(low * shift, high * shift)
         twin.set_ylabel("Brause e^LA (rad)", fontsize=8)
         twin.legend(loc="upper right", fontsize=7)
+        ticks = sorted({round(r["n_per_axis"], 2) for r in rows})
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks], fontsize=7)
+        ax.minorticks_off()
         ax.set_xlabel("neurons per axis n = N^(1/3)")
         ax.set_ylabel(f"mean error after {MOVE_NAMES[move]} move (mm)")
         ax.legend(loc="lower left", fontsize=7)
