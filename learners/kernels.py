@@ -27,6 +27,12 @@ except ImportError:  # the numpy path is used
 
 #: Lattices of up to this many axes (a shorter shape is padded with leading 1s).
 MAX_AXES = 3
+#: Edge of the lattice blocks of the pruned winner search (neurons), and the relative slack
+#: that keeps its bounds conservative under rounding (scores carry ~1e-16 relative error).
+BLOCK = 4
+SLACK = 1e-9
+#: Above this fraction of blocks left to scan, the plain scan (contiguous memory) is faster.
+PRUNED_FRACTION = 0.25
 #: What :func:`learn` did.
 LEARNED, NOT_FINITE, SMALL_DV = 0, 1, 2
 
@@ -86,7 +92,109 @@ def winner(w: np.ndarray, w2: np.ndarray, u: np.ndarray) -> int:
 
 
 @_jit
+def refresh_blocks(
+    w: np.ndarray, shape: np.ndarray, centre: np.ndarray, radius: np.ndarray
+) -> None:
+    """Centre (mean w) and radius (largest |w − centre|) of every block of BLOCK³ neurons."""
+    n0, n1, n2 = shape[0], shape[1], shape[2]
+    b0, b1, b2 = (n0 + BLOCK - 1) // BLOCK, (n1 + BLOCK - 1) // BLOCK, (n2 + BLOCK - 1) // BLOCK
+    D = w.shape[1]
+    for p in range(b0):
+        for q in range(b1):
+            for m in range(b2):
+                b = (p * b1 + q) * b2 + m
+                count = 0
+                for d in range(D):
+                    centre[b, d] = 0.0
+                for i in range(p * BLOCK, min(p * BLOCK + BLOCK, n0)):
+                    for j in range(q * BLOCK, min(q * BLOCK + BLOCK, n1)):
+                        for k in range(m * BLOCK, min(m * BLOCK + BLOCK, n2)):
+                            r = (i * n1 + j) * n2 + k
+                            count += 1
+                            for d in range(D):
+                                centre[b, d] += w[r, d]
+                for d in range(D):
+                    centre[b, d] /= count
+                far = 0.0
+                for i in range(p * BLOCK, min(p * BLOCK + BLOCK, n0)):
+                    for j in range(q * BLOCK, min(q * BLOCK + BLOCK, n1)):
+                        for k in range(m * BLOCK, min(m * BLOCK + BLOCK, n2)):
+                            r = (i * n1 + j) * n2 + k
+                            d2 = 0.0
+                            for d in range(D):
+                                d2 += (w[r, d] - centre[b, d]) ** 2
+                            far = max(far, d2)
+                radius[b] = np.sqrt(far) * (1.0 + SLACK) + SLACK
+
+
+@_jit
+def _block_of(r: int, shape: np.ndarray) -> int:
+    """The block holding neuron r."""
+    n1, n2 = shape[1], shape[2]
+    b1, b2 = (n1 + BLOCK - 1) // BLOCK, (n2 + BLOCK - 1) // BLOCK
+    i, j, k = r // (n1 * n2), r // n2 % n1, r % n2
+    return ((i // BLOCK) * b1 + j // BLOCK) * b2 + k // BLOCK
+
+
+@_jit
+def _scan_block(
+    b: int, w: np.ndarray, w2: np.ndarray, u: np.ndarray, shape: np.ndarray, best: int,
+    best_score: float,
+) -> tuple[int, float]:  # fmt: skip
+    """The winner's scan over the neurons of block b, continuing from (best, best_score);
+    ties go to the lower index, as in :func:`winner`."""
+    n0, n1, n2 = shape[0], shape[1], shape[2]
+    b1, b2 = (n1 + BLOCK - 1) // BLOCK, (n2 + BLOCK - 1) // BLOCK
+    p, q, m = b // (b1 * b2), b // b2 % b1, b % b2
+    for i in range(p * BLOCK, min(p * BLOCK + BLOCK, n0)):
+        for j in range(q * BLOCK, min(q * BLOCK + BLOCK, n1)):
+            for k in range(m * BLOCK, min(m * BLOCK + BLOCK, n2)):
+                r = (i * n1 + j) * n2 + k
+                dot = 0.0
+                for d in range(w.shape[1]):
+                    dot += w[r, d] * u[d]
+                score = w2[r] - 2.0 * dot
+                if score < best_score or (score == best_score and r < best):
+                    best, best_score = r, score
+    return best, best_score
+
+
+@_jit
+def winner_pruned(
+    w: np.ndarray, w2: np.ndarray, u: np.ndarray, shape: np.ndarray, centre: np.ndarray,
+    radius: np.ndarray,
+) -> int:  # fmt: skip
+    """The same neuron as :func:`winner`, scanning only the blocks that can hold it: a block
+    whose lower bound (|u − centre| − radius)² exceeds the best |u − w_r|² found is skipped
+    (the plain scan when that would skip less than 1 − PRUNED_FRACTION of the blocks)."""
+    nb, D = len(radius), w.shape[1]
+    u2 = 0.0
+    for d in range(D):
+        u2 += u[d] * u[d]
+    bound = np.empty(nb)
+    first, first_bound = 0, np.inf
+    for b in range(nb):
+        d2 = 0.0
+        for d in range(D):
+            d2 += (u[d] - centre[b, d]) ** 2
+        gap = max(np.sqrt(d2) - radius[b], 0.0)
+        bound[b] = gap * gap
+        if bound[b] < first_bound:
+            first, first_bound = b, bound[b]
+    best, best_score = _scan_block(first, w, w2, u, shape, w.shape[0], np.inf)
+    limit = best_score + u2 + SLACK * (u2 + abs(best_score) + 1.0)  # ≥ best |u − w_r|²
+    if np.sum(bound <= limit) > nb * PRUNED_FRACTION:  # little to skip (an unordered map)
+        return winner(w, w2, u)
+    for b in range(nb):
+        limit = best_score + u2 + SLACK * (u2 + abs(best_score) + 1.0)
+        if b != first and bound[b] <= limit:
+            best, best_score = _scan_block(b, w, w2, u, shape, best, best_score)
+    return best
+
+
+@_jit
 def coarse(
+    s: int,
     u: np.ndarray,
     w: np.ndarray,
     w2: np.ndarray,
@@ -96,9 +204,10 @@ def coarse(
     r2: int,
     shape: np.ndarray,
 ) -> tuple[int, np.ndarray, np.ndarray]:
-    """Winner s, averaged output θ0 (J,) and Ā (J, D) with weights table[d²] around s (the
-    winner alone for r2 = 0)."""
-    s = winner(w, w2, u)
+    """Winner s (s < 0: search it), averaged output θ0 (J,) and Ā (J, D) with weights
+    table[d²] around s (the winner alone for r2 = 0)."""
+    if s < 0:
+        s = winner(w, w2, u)
     J, D = A.shape[1], A.shape[2]
     out, abar = np.zeros(J), np.zeros((J, D))
     if r2 == 0:
@@ -187,11 +296,16 @@ def learn(
     eps_out: float,
     table_out: np.ndarray,
     shape: np.ndarray,
+    block_centre: np.ndarray,
+    block_radius: np.ndarray,
 ) -> int:
     """One trial's learning step in place around winner s (s < 0: search it), from the targets
     θ* ("mrs": θ_s + A_s(u − v0), else θ1 + A_s(w_s − v1)) and A* = A_s + (Δθ − A_s Δv)Δv^T/|Δv|²,
     both taken before the update;
     h = table_w[d²], h' = table_out[d²] (``Lattice.weights``: cut-off r² = len − 2).
+
+    With blocks (``block_radius`` not empty, see :func:`refresh_blocks`), each moved w_r
+    widens its block's radius to cover it (the centre stays), so the bounds stay valid.
 
     Returns LEARNED, or, with nothing changed, NOT_FINITE (an input holds NaN/inf) or SMALL_DV
     (|v1 − v0| < min_dv)."""
@@ -229,6 +343,12 @@ def learn(
             w[r, d] += e * (u[d] - w[r, d])
             sq += w[r, d] * w[r, d]
         w2[r] = sq
+        if len(block_radius) > 0:
+            b = _block_of(r, shape)
+            far = 0.0
+            for d in range(D):
+                far += (w[r, d] - block_centre[b, d]) ** 2
+            block_radius[b] = max(block_radius[b], np.sqrt(far) * (1.0 + SLACK) + SLACK)
     index, dist2 = _sphere(s, len(table_out) - 2, shape)
     for k in range(len(index)):
         r, e = index[k], eps_out * table_out[dist2[k]]

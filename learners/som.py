@@ -111,6 +111,12 @@ DEFAULT_T_MAX = 10_000
 DEFAULT_MIN_DV = 1e-3
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
+#: Lattices of at least this many neurons use the pruned winner search of the compiled path
+#: (bounding spheres of 4³-neuron blocks); below it a plain scan is as fast.
+PRUNED_SEARCH_MIN = 4096
+#: ... whose block bounds are recomputed every this many learned trials (in between, a moved
+#: neuron only widens its block's radius).
+BLOCK_REFRESH = 1000
 #: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
 #: threads, which on 2 shared cores made act_batch 4 times slower.
 _BATCH_BLOCK = 64
@@ -243,6 +249,10 @@ class VisuomotorSOM(Controller):
         self.kernel = _kernel(kernel, len(self.lattice))
         self._shape = np.array((1, 1, *self.lattice)[-3:], dtype=np.int64)  # 3-D, for the kernels
         self._zeros = np.zeros(self.n_joints)  # no exploration noise, for the kernels
+        self._pruned = self.kernel == "numba" and math.prod(self.lattice) >= PRUNED_SEARCH_MIN
+        blocks = math.prod(-(-n // kernels.BLOCK) for n in self._shape)
+        self._block_centre = np.zeros((blocks, input_dim) if self._pruned else (0, 1))
+        self._block_radius = np.zeros(blocks if self._pruned else 0)
         self.coords = self._grid.coords  # (N, L) lattice coordinates of each neuron
         N = self.n_neurons
         self._w = self.rng.uniform(low, high, size=(N, D))  # (N, D)
@@ -306,6 +316,8 @@ class VisuomotorSOM(Controller):
     def _sync(self) -> None:
         """Derived data: |w_r|² for the winner search, parameters for the current t."""
         self._w2 = np.einsum("nd,nd->n", self._w, self._w)  # (N,)
+        if self._pruned:  # bounding spheres of the lattice blocks, for the winner search
+            kernels.refresh_blocks(self._w, self._shape, self._block_centre, self._block_radius)
         self._params_t = -1
         self._version += 1  # w changed outside learn(): forget the remembered winner
         self._last_winner: tuple[bytes, int, int] = (b"", -1, -1)
@@ -324,6 +336,10 @@ class VisuomotorSOM(Controller):
 
     def _winner(self, u: np.ndarray) -> int:
         """argmin_r |u − w_r|² = argmin_r |w_r|² − 2 w_r·u."""
+        if self._pruned:
+            return kernels.winner_pruned(
+                self._w, self._w2, u, self._shape, self._block_centre, self._block_radius
+            )
         if self.kernel == "numba":
             return kernels.winner(self._w, self._w2, u)
         return int((self._w2 - 2.0 * (self._w @ u)).argmin())
@@ -353,8 +369,9 @@ class VisuomotorSOM(Controller):
         r2 = self._grid.cutoff_radius2(sigma_out) if self.averaging == "neighbourhood" else 0
         if self.kernel == "numba":
             table = self._grid.weights(sigma_out)
+            s = self._winner(u) if self._pruned else -1
             s, theta, abar = kernels.coarse(
-                u, self._w, self._w2, self._th, self._A, table, r2, self._shape
+                s, u, self._w, self._w2, self._th, self._A, table, r2, self._shape
             )
             self._last_winner = (u.tobytes(), self._version, s)
             return theta, abar
@@ -549,13 +566,18 @@ class VisuomotorSOM(Controller):
         (skipped, |Δv| < min_dv), None (an input not finite; nothing changed)."""
         memo = self._last_winner
         s = memo[2] if memo[1] == self._version and memo[0] == u.tobytes() else -1
+        if s < 0 and self._pruned:
+            s = self._winner(u)
         eps, sigma, eps_out, sigma_out, _ = self.params()
         status = kernels.learn(
             s, self.rule == "mrs", u, theta0, v0, theta1, v1, self.min_dv,
             self._w, self._w2, self._th, self._A, self.lower, self.upper,
             eps, self._grid.weights(sigma), eps_out, self._grid.weights(sigma_out), self._shape,
+            self._block_centre, self._block_radius,
         )  # fmt: skip
         if status == kernels.LEARNED:
+            if self._pruned and self.t % BLOCK_REFRESH == 0:  # tighten the grown radii
+                kernels.refresh_blocks(self._w, self._shape, self._block_centre, self._block_radius)
             self._version += 1
             self.t += 1
             return True

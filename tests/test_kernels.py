@@ -62,6 +62,21 @@ def test_compiled_path_equals_the_numpy_reference_over_1000_trials(options):
     np.testing.assert_allclose(fast.act_batch(U), ref.act_batch(U), rtol=0, atol=TOLERANCE)
 
 
+def test_pruned_winner_search_of_large_lattices_equals_the_plain_scan():
+    fast, _ = run("numba", trials=300, lattice=(16, 16, 16))  # 4096 neurons: pruned search
+    ref, _ = run("numpy", trials=300, lattice=(16, 16, 16))
+    assert fast._pruned and not ref._pruned
+    np.testing.assert_array_equal(fast.w, ref.w)  # the same winners in all 300 trials
+    np.testing.assert_allclose(fast.theta, ref.theta, rtol=0, atol=TOLERANCE)
+    rng = np.random.default_rng(5)
+    c = fast.coords / 15.0  # an ordered map, where most blocks are skipped
+    fast.w = np.c_[c[:, :2], c[:, :2] * 0.9 + c[:, 2:] * 0.1] * IMAGE + rng.normal(0, 1, (4096, 4))
+    for u, v0, v1 in zip(*inputs(300, seed=7), strict=True):  # moved neurons widen blocks
+        fast.learn(u, fast.act(u), v0, fast.act(u, v0), v1)
+    for u in rng.uniform(-0.2, 1.2, size=(2000, 4)) * IMAGE:  # also outside the image
+        assert fast._winner(u) == int(np.argmin(((fast.w - u) ** 2).sum(1)))
+
+
 @pytest.mark.parametrize("kernel", ["numba", "numpy"])
 def test_bad_and_skipped_trials_are_handled_alike(kernel):
     som = VisuomotorSOM(LOWER, UPPER, t_max=10, rng=0, input_high=IMAGE, kernel=kernel)
