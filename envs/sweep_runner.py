@@ -59,6 +59,7 @@ def start_ray(address: str | None, num_cpus: int) -> None:
         os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"  # for the processes Ray starts
         ray._private.ray_constants.ENABLE_RAY_CLUSTER = False  # for this one (read at import)
         ray.init(
+            address="local",  # a new instance, never one a `ray start` left behind
             num_cpus=num_cpus,
             include_dashboard=False,
             _node_ip_address=LOOPBACK,
