@@ -8,9 +8,8 @@ neighbourhood of any winner, with no (N, N) table:
     per width:  weight[d²] for d² = 0 .. r²_cut, then 0,
 
 and the neurons with weight > 0 lie in the box |r_a − s_a| ≤ ⌊√r²_cut⌋ around the winner, which
-in C order is a strided view of any (N, ...) array. Kinds:
-    "gaussian": h = exp(−d² / 2σ²), dropped below H_CUTOFF (Brause 3.2, MRS);
-    "step":     h = 1 for d ≤ σ, else 0 (Brause's alternative in 3.2).
+in C order is a strided view of any (N, ...) array. The Gaussian h = exp(−d² / 2σ²) is dropped
+below H_CUTOFF; Brause's step neighbourhood (3.2), h = 1 for d ≤ radius, is :meth:`within`.
 weight[d²] is computed as exp(d² · (−1/2σ²)) from the exact integer d², the same double as the
 full-table construction gave, so the weights are bit-identical to it.
 """
@@ -25,7 +24,6 @@ import numpy as np
 #: less than 1e-6 of itself; the RIACS and PUMA figures are the same to 3 digits as with 1e-12).
 H_CUTOFF = 1e-6
 _LOG_CUTOFF = math.log(1.0 / H_CUTOFF)
-KINDS = ("gaussian", "step")
 
 #: Neighbourhoods and weight tables remembered (a trial asks for two widths, twice each).
 _MEMO_SIZE = 4
@@ -34,19 +32,11 @@ Box = tuple[slice, ...]
 
 
 class Lattice:
-    """Neurons on a grid of ``shape`` (C order) and their radial neighbourhood weights.
+    """Neurons on a grid of ``shape`` (C order) and their neighbourhoods (widths and radii in
+    lattice units)."""
 
-    Args:
-        shape: lattice sizes (n_1, ..., n_L).
-        kind: "gaussian" or "step" (see the module docstring); the width σ is in lattice units.
-    """
-
-    def __init__(self, shape: tuple[int, ...], kind: str = "gaussian") -> None:
-        if kind not in KINDS:
-            raise ValueError(
-                f"unknown neighbourhood kind {kind!r}; valid kinds: {', '.join(KINDS)}"
-            )
-        self.shape, self.kind = tuple(int(n) for n in shape), kind
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        self.shape = tuple(int(n) for n in shape)
         self.coords = np.indices(self.shape).reshape(len(self.shape), -1).T  # (N, L)
         self._strides = [math.prod(self.shape[a + 1 :]) for a in range(len(self.shape))]
         #: squared distance of every lattice offset, indexed by offset + (n_a − 1) per axis:
@@ -64,8 +54,6 @@ class Lattice:
 
     def cutoff_radius2(self, sigma: float) -> int:
         """Largest squared lattice distance whose weight is nonzero (above H_CUTOFF)."""
-        if self.kind == "step":
-            return min(math.floor(sigma * sigma), self._d2_max)
         return min(int(2.0 * sigma * sigma * _LOG_CUTOFF), self._d2_max)
 
     def weights(self, sigma: float) -> np.ndarray:
@@ -73,10 +61,7 @@ class Lattice:
         table = self._tables.get(sigma)
         if table is None:
             r2 = self.cutoff_radius2(sigma)
-            if self.kind == "step":
-                table = np.ones(r2 + 2)
-            else:
-                table = np.exp(np.arange(r2 + 2, dtype=float) * (-0.5 / (sigma * sigma)))
+            table = np.exp(np.arange(r2 + 2, dtype=float) * (-0.5 / (sigma * sigma)))
             table[-1] = 0.0
             if len(self._tables) >= _MEMO_SIZE:  # σ(t) changes every trial: keep the last few
                 self._tables.clear()
@@ -107,11 +92,7 @@ class Lattice:
             return found
         r2 = self.cutoff_radius2(sigma)
         box = self.box(s, r2)
-        offsets = tuple(
-            slice(b.start - c + n - 1, b.stop - c + n - 1)
-            for b, c, n in zip(box, self.coords[s].tolist(), self.shape, strict=True)
-        )
-        h = self.weights(sigma).take(np.minimum(self._offset_d2[offsets], r2 + 1))
+        h = self.weights(sigma).take(np.minimum(self._box_d2(s, box), r2 + 1))
         h.flags.writeable = False  # shared by the callers that ask again
         if len(self._memo) >= _MEMO_SIZE:
             self._memo.clear()
@@ -131,7 +112,21 @@ class Lattice:
 
     def within(self, s: int, radius: float) -> np.ndarray:
         """Brause's step neighbourhood (3.2): the neurons k with |y_k − y_s| ≤ ``radius``
-        (lattice units), nearest first; each has h = 1, all others h = 0. ``radius`` < 1 leaves
-        the winner alone."""
+        (lattice units), nearest first (ties in index order); each has h = 1, all others
+        h = 0. ``radius`` < 1 leaves the winner alone."""
         r2 = min(math.floor(radius * radius), self._d2_max)  # squared distances are integers
-        return self._order[s, : self._count[s, r2]]
+        box = self.box(s, r2)
+        flat = np.zeros((), dtype=np.intp)
+        for b, stride in zip(box, self._strides, strict=True):
+            flat = np.add.outer(flat, np.arange(b.start, b.stop) * stride)  # the box's indices
+        d2 = self._box_d2(s, box)
+        inside = d2 <= r2
+        return flat[inside][np.argsort(d2[inside], kind="stable")]
+
+    def _box_d2(self, s: int, box: Box) -> np.ndarray:
+        """Squared lattice distances from neuron s over ``box`` (a view of the offset table)."""
+        offsets = tuple(
+            slice(b.start - c + n - 1, b.stop - c + n - 1)
+            for b, c, n in zip(box, self.coords[s].tolist(), self.shape, strict=True)
+        )
+        return self._offset_d2[offsets]

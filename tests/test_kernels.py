@@ -48,7 +48,14 @@ def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarra
 
 @pytest.mark.parametrize(
     "options",
-    [{}, {"rule": "brause"}, {"averaging": "winner"}, {"lattice": (17, 9)}, {"lattice": (5, 4, 3)}],
+    [
+        {},
+        {"rule": "brause"},
+        {"averaging": "winner"},
+        {"lattice": (17, 9)},
+        {"lattice": (5, 4, 3)},
+        {"protocol": "brause"},  # the compiled path steps aside: Brause's loop is numpy only
+    ],
 )
 def test_compiled_path_equals_the_numpy_reference_over_1000_trials(options):
     fast, fast_commands = run("numba", **options)

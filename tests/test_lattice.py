@@ -1,5 +1,5 @@
 """Lattice: the box neighbourhoods in O(N) memory against the former full (N, N) tables, the
-step kind against its definition, and the size of a 40³ lattice."""
+step neighbourhood against them and its definition, and the size of a 40³ lattice."""
 
 from __future__ import annotations
 
@@ -20,6 +20,11 @@ class FullTables:
         coords = np.indices(shape).reshape(len(shape), -1).T  # (N, L)
         self.d2 = ((coords[:, None, :] - coords[None, :, :]) ** 2).sum(-1).astype(float)  # (N, N)
         self.order = np.argsort(self.d2, axis=1, kind="stable")
+
+    def within(self, s: int, radius: float) -> np.ndarray:
+        """Neurons within ``radius`` of s, nearest first (the former ``Lattice.within``)."""
+        r2 = min(math.floor(radius * radius), int(self.d2.max()))
+        return self.order[s, : int((self.d2[s] <= r2).sum())]
 
     def weights(self, s: int, sigma: float) -> np.ndarray:
         """(N,) h_r around winner s, 0 beyond the cut-off."""
@@ -78,19 +83,16 @@ def test_box_holds_exactly_the_neurons_with_nonzero_weight_plus_its_corners():
     assert h.shape == tuple(b.stop - b.start for b in box)
 
 
-def test_step_neighbourhood_is_one_within_the_radius_and_zero_beyond():
+def test_step_neighbourhood_equals_the_full_tables_and_its_definition():
     shape = (7, 6, 5)
-    lattice = Lattice(shape, kind="step")
+    lattice, ref = Lattice(shape), FullTables(shape)
     coords = np.indices(shape).reshape(3, -1).T
-    for s in (0, 100, 209):
-        for radius in (0.5, 1.0, 1.5, 2.2, 30.0):
+    for s in (0, 100, 209, 17):
+        for radius in (0.5, 1.0, 1.5, 2.2, 3.0, 30.0):
+            got = lattice.within(s, radius)
+            np.testing.assert_array_equal(got, ref.within(s, radius))  # order too
             dist = np.sqrt(((coords - coords[s]) ** 2).sum(1))
-            np.testing.assert_array_equal(scattered(lattice, s, radius), dist <= radius)
-
-
-def test_unknown_kind_names_the_valid_ones():
-    with pytest.raises(ValueError, match="gaussian, step"):
-        Lattice((3, 3), kind="mexican-hat")
+            np.testing.assert_array_equal(np.sort(got), np.flatnonzero(dist <= radius))
 
 
 def test_a_40_cubed_lattice_holds_linear_memory():
