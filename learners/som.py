@@ -564,6 +564,15 @@ class VisuomotorSOM(Controller):
     ) -> bool | None:
         """``learn`` in one kernel call for inputs of the right shapes: True (learned), False
         (skipped, |Δv| < min_dv), None (an input not finite; nothing changed)."""
+        if self.monitor is not None:  # the continual mode sees the trial first, as in learn
+            dv = v1 - v0
+            finite = math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1 + v0 @ v0 + v1 @ v1)
+            if not finite:
+                return None
+            if float(dv @ dv) >= self.min_dv * self.min_dv:
+                e = u - v0
+                if self.monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
+                    self._params_t = -1
         memo = self._last_winner
         s = memo[2] if memo[1] == self._version and memo[0] == u.tobytes() else -1
         if s < 0 and self._pruned:

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from learners import kernels
+from learners.schedules import Continual
 from learners.som import VisuomotorSOM
 from models.riacs import LOWER, UPPER
 
@@ -55,6 +56,7 @@ def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarra
         {"lattice": (17, 9)},
         {"lattice": (5, 4, 3)},
         {"protocol": "brause"},  # the compiled path steps aside: Brause's loop is numpy only
+        {"continual": Continual()},  # ... and so it does for the continual mode's monitor
     ],
 )
 def test_compiled_path_equals_the_numpy_reference_over_1000_trials(options):
