@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 # Headless rendering: EGL (Mesa llvmpipe without a GPU) unless the caller chose a back-end.
 export MUJOCO_GL ?= egl
 
-.PHONY: demo test lint bench clean test-sweep sweep-demo
+.PHONY: demo test lint bench soak clean test-sweep sweep-demo
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -20,6 +20,10 @@ demo: $(VENV)/.installed
 
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+
+# The long fault test: ten times the signals of the kill test in `make test`.
+soak: $(VENV)/.installed
+	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -s -n 2 tests/test_kill.py
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .

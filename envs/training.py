@@ -1,25 +1,43 @@
 """Training a learner on a reach env, trial by trial, with held-out evaluations and checkpoints
-from which a run continues exactly as if it had never stopped."""
+from which a run continues exactly as if it had never stopped: after Ctrl-C, SIGTERM, SIGKILL or
+a power cut, ``Trainer.resume`` gives the arrays, generator states and metrics of an unbroken run.
+"""
 
 from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
+from envs.checkpoint import (
+    CHECKPOINT_FILE,
+    check_identity,
+    check_map_fits,
+    get_sim_state,
+    identity,
+    read_unit,
+    set_sim_state,
+    write_unit,
+)
 from envs.evaluation import evaluate
 from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
+from envs.runfolder import METRICS_FILE, RunFolder, truncate_metrics
+from envs.stopping import SignalStop, StopRequested
 from envs.trials import learn_from, run_trial
-from learners.persistence import CheckpointError, write_atomic
+from learners.persistence import CheckpointError
 from learners.som import VisuomotorSOM
 from models.arms import arm_kinematics
 
-MAP_FILE, STATE_FILE, METRICS_FILE = "som.npz", "trainer.json", "metrics.jsonl"
+#: The checkpoint unit is also the run's map file (``VisuomotorSOM.load`` reads it).
+MAP_FILE = CHECKPOINT_FILE
+#: Run settings that ``--resume`` may change: ``trials`` (to go on past the old end; the map's
+#: schedules then stay at their final values). Everything else defines the run.
+RESUMABLE = ("trials",)
 #: The held-out targets come from the env seeded with seed + EVAL_SEED_OFFSET, never trained on.
 EVAL_SEED_OFFSET = 10_000
 #: Weight of the newest trial in the running errors shown on the progress bar.
@@ -84,66 +102,99 @@ def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
 class Trainer:
     """Runs ``config.trials`` training trials, evaluating every ``eval_every`` trials.
 
+    The folder ``out`` is locked while the trainer exists (``close()`` releases it) and holds
+    the checkpoint unit (``som.npz``: map, trainer state, simulation state, env generator,
+    metrics position) and ``metrics.jsonl`` (one held-out evaluation per row).
+
     Args:
-        config: the run; out: folder for the checkpoint (som.npz, trainer.json) and
-            metrics.jsonl.
+        config: the run; out: its folder; force: start over in a folder that holds a run.
+    Raises:
+        RunFolderError: another process writes to ``out``, or ``out`` holds a run and not
+            ``force``.
     """
 
-    def __init__(self, config: RunConfig, out: Path) -> None:
-        self.config, self.out = config, Path(out)
+    def __init__(self, config: RunConfig, out: Path, force: bool = False) -> None:
+        folder = RunFolder(out)
+        try:
+            folder.claim_fresh((CHECKPOINT_FILE, METRICS_FILE), force)
+            self._build(config, folder)
+            self.pending_eval = True  # the evaluation of the untrained map, trial 0
+            self.save()  # from here on every kill can be resumed
+        except BaseException:
+            folder.release()
+            raise
+
+    def _build(self, config: RunConfig, folder: RunFolder) -> None:
+        self.config, self.folder, self.out = config, folder, folder.path
         self.env = config.make_env()
         self.som = initial_map(config, self.env)
-        self.trial = 0
+        self.trial, self.metrics_rows, self.pending_eval = 0, 0, False
         self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}
 
     # -- checkpoints ---------------------------------------------------------------------------
 
+    @staticmethod
+    def stored_config(out: Path) -> RunConfig:
+        """The configuration of the run saved in ``out`` (CheckpointError if there is none)."""
+        path = Path(out) / CHECKPOINT_FILE
+        if not path.is_file():
+            raise CheckpointError(f"{path}: no checkpoint to resume; train without --resume")
+        stored = read_unit(path)[0]["config"]
+        try:
+            return RunConfig(**{**stored, "lattice": tuple(stored["lattice"])})
+        except TypeError as exc:
+            raise CheckpointError(f"{path}: the run's configuration is damaged ({exc})") from exc
+
     @classmethod
-    def resume(cls, out: Path) -> Trainer:
-        """Continue the run saved in ``out``."""
-        state_path = Path(out) / STATE_FILE
-        if not state_path.is_file():
-            raise CheckpointError(f"{state_path}: no checkpoint to resume; train without --resume")
-        state = json.loads(state_path.read_text())
-        config = RunConfig(**{**state["config"], "lattice": tuple(state["config"]["lattice"])})
-        trainer = cls(config, out)
-        trainer.som = VisuomotorSOM.load(Path(out) / MAP_FILE)
-        seen = trainer.som.t + sum(trainer.som.skipped.values())
-        if seen != state["learn_calls"]:
-            raise CheckpointError(
-                f"{out}: som.npz has {seen} trials but trainer.json {state['learn_calls']}; the "
-                "two files are from different moments (interrupted while saving?); retrain"
-            )
-        trainer.trial, trainer.running = state["trial"], state["running"]
-        base = trainer.env.unwrapped
-        base.np_random.bit_generator.state = state["env_rng"]
-        for name in ("qpos", "qvel", "ctrl"):
-            getattr(base.data, name)[:] = state["arm"][name]
-        trainer._truncate_metrics()
+    def resume(cls, out: Path, trials: int | None = None) -> Trainer:
+        """Continue the run saved in ``out``; ``trials`` extends (or shortens) its end."""
+        trainer = cls.__new__(cls)
+        folder = RunFolder(out)
+        try:
+            path = folder.path / CHECKPOINT_FILE
+            config = cls.stored_config(out)
+            run, sim_state = read_unit(path)
+            if trials is not None:
+                if trials < run["trial"]:
+                    raise CheckpointError(
+                        f"--trials {trials} is below the {run['trial']} trials this run has done"
+                    )
+                config = replace(config, trials=trials)
+            trainer._build(config, folder)
+            wanted = identity(trainer.env, config.lattice)
+            check_identity(path, run["identity"], wanted, tuple(wanted))
+            trainer.som = VisuomotorSOM.load(path)
+            check_map_fits(path, trainer.som, trainer.env)
+            lattice = {"lattice": list(trainer.som.lattice)}
+            check_identity(path, lattice, {"lattice": list(config.lattice)}, ("lattice",))
+            trainer.trial, trainer.running = int(run["trial"]), dict(run["running"])
+            trainer.metrics_rows, trainer.pending_eval = run["metrics_rows"], run["pending_eval"]
+            base = trainer.env.unwrapped
+            base.np_random.bit_generator.state = run["env_rng"]
+            set_sim_state(trainer.env, sim_state)
+            truncate_metrics(folder.path / METRICS_FILE, trainer.metrics_rows)
+        except (KeyError, TypeError, ValueError) as exc:
+            folder.release()
+            if isinstance(exc, CheckpointError):
+                raise
+            raise CheckpointError(f"{out}: the run's state is damaged ({exc!r})") from exc
+        except BaseException:
+            folder.release()
+            raise
         return trainer
 
     def save(self) -> None:
-        """som.npz, then trainer.json (both atomic); trainer.json counts the map's trials."""
-        self.som.save(self.out / MAP_FILE)
-        base = self.env.unwrapped
-        state = {
+        """Write the checkpoint unit (atomically: a kill leaves the previous one intact)."""
+        run = {
             "config": asdict(self.config),
+            "identity": identity(self.env, self.config.lattice),
             "trial": self.trial,
-            "learn_calls": self.som.t + sum(self.som.skipped.values()),
             "running": self.running,
-            "env_rng": base.np_random.bit_generator.state,
-            "arm": {n: getattr(base.data, n).tolist() for n in ("qpos", "qvel", "ctrl")},
+            "metrics_rows": self.metrics_rows,
+            "pending_eval": self.pending_eval,
+            "env_rng": self.env.unwrapped.np_random.bit_generator.state,
         }
-        write_atomic(self.out / STATE_FILE, lambda f: f.write(json.dumps(state, indent=1).encode()))
-
-    def _truncate_metrics(self) -> None:
-        """Drop evaluations logged after the checkpoint, so the file matches an unbroken run."""
-        path = self.out / METRICS_FILE
-        if path.is_file():
-            rows = [
-                r for r in path.read_text().splitlines() if json.loads(r)["trial"] <= self.trial
-            ]
-            write_atomic(path, lambda f: f.write("".join(r + "\n" for r in rows).encode()))
+        write_unit(self.out / CHECKPOINT_FILE, self.som, run, get_sim_state(self.env))
 
     # -- the loop ------------------------------------------------------------------------------
 
@@ -151,22 +202,40 @@ class Trainer:
         self,
         checkpoint_every: int = 1000,
         progress: Callable[[int, dict[str, float]], None] | None = None,
+        stop: SignalStop | None = None,
     ) -> None:
-        """Train until ``config.trials``; checkpoint every ``checkpoint_every`` trials, at the
-        end, and on KeyboardInterrupt (then re-raised)."""
-        self.out.mkdir(parents=True, exist_ok=True)
-        if self.trial == 0 and not (self.out / METRICS_FILE).exists():
-            self._log(self.held_out())
+        """Train until ``config.trials``; checkpoint every ``checkpoint_every`` trials and at
+        the end.
+
+        SIGINT and SIGTERM (noted by ``stop``, or by a :class:`SignalStop` installed here) let
+        the current trial finish, abandon a held-out evaluation (redone on resume), save and
+        raise :class:`StopRequested`. Any other exception leaves the last checkpoint as it is.
+        """
+        if stop is None:
+            with SignalStop() as own:
+                return self.run(checkpoint_every, progress, own)
         try:
-            while self.trial < self.config.trials:
+            while True:
+                if self.pending_eval:
+                    with stop.abandonable():
+                        row = self.held_out()
+                    self._log(row)
+                    self.pending_eval = False
+                    if self.trial == self.config.trials or self.trial % checkpoint_every == 0:
+                        self.save()
+                if self.trial >= self.config.trials:
+                    break
+                stop.check()
                 self.train_one()
-                if self.trial % self.config.eval_every == 0 or self.trial == self.config.trials:
-                    self._log(self.held_out())
-                if self.trial % checkpoint_every == 0:
+                self.pending_eval = (
+                    self.trial % self.config.eval_every == 0 or self.trial == self.config.trials
+                )
+                if self.trial % checkpoint_every == 0 and not self.pending_eval:
                     self.save()
                 if progress is not None:
                     progress(self.trial, self.running)
-        except KeyboardInterrupt:
+        except StopRequested:
+            self.som.reset()  # as after every evaluation; the next trial resets it anyway
             self.save()
             raise
         self.save()
@@ -197,7 +266,9 @@ class Trainer:
 
     def _log(self, row: dict[str, Any]) -> None:
         with open(self.out / METRICS_FILE, "a") as f:
-            f.write(json.dumps(row) + "\n")
+            f.write(json.dumps(row, allow_nan=False) + "\n")
+        self.metrics_rows += 1
 
     def close(self) -> None:
         self.env.close()
+        self.folder.release()

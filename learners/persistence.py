@@ -14,19 +14,29 @@ from typing import Any, BinaryIO
 import numpy as np
 
 _KIND, _VERSION, _CONFIG = "__kind__", "__format_version__", "__config__"
+#: Mode of written files before the umask, as open() gives (0644 with the usual umask 022).
+FILE_MODE = 0o666
 
 
 class CheckpointError(ValueError):
     """A file that is missing, damaged, or holds something other than what was asked for."""
 
 
+def _umask() -> int:
+    mask = os.umask(0)  # the only way to read it is to set it
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
     """Write a file through ``write(f)`` into a temporary file beside ``path``, flush it to disk,
-    then rename it over ``path``: readers see the old file or the new one, never a part."""
+    then rename it over ``path``: readers see the old file or the new one, never a part. The file
+    gets mode 0666 less the umask, as ``open`` would give it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(fd, FILE_MODE & ~_umask())  # mkstemp makes 0600; others may read results
         with os.fdopen(fd, "wb") as f:
             write(f)
             f.flush()

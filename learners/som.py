@@ -652,6 +652,11 @@ class VisuomotorSOM(Controller):
         """Write everything needed to continue bit-identically to one ``.npz``, atomically:
         the arrays, the configuration, t, the skip counters, the generator state and the
         fine-move memory."""
+        return save_npz(path, KIND, FORMAT_VERSION, *self.state())
+
+    def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """(configuration, arrays) that :meth:`save` writes; a training run's checkpoint adds
+        its own entries beside them (``envs.checkpoint``), and :meth:`load` reads both."""
         config: dict[str, Any] = {
             "lattice": list(self.lattice),
             "input_dim": self.input_dim,
@@ -683,7 +688,7 @@ class VisuomotorSOM(Controller):
             "input_high": self.input_high,
         }
         arrays.update({k: getattr(self, k) for k in self._MEMORY if getattr(self, k) is not None})
-        return save_npz(path, KIND, FORMAT_VERSION, config, arrays)
+        return config, arrays
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> VisuomotorSOM:

@@ -27,7 +27,10 @@ def make_controller(spec: str, env, seed: int = 0) -> Controller:
 
         return JacobianIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
     if spec.endswith(".npz"):
+        from envs.checkpoint import check_map_fits
         from learners.som import VisuomotorSOM
 
-        return VisuomotorSOM.load(Path(spec))
+        som = VisuomotorSOM.load(Path(spec))
+        check_map_fits(spec, som, env)  # a map of another robot or image size is refused
+        return som
     raise ValueError(f"unknown controller {spec!r}; valid: {SPECS}")

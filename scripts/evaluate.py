@@ -15,13 +15,14 @@ import argparse
 import json
 from pathlib import Path
 
+import cli
 import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs import plots
 from envs.evaluation import evaluate
 from envs.rendering import render_camera
-from envs.training import MAP_FILE, METRICS_FILE, STATE_FILE
+from envs.training import MAP_FILE, METRICS_FILE, Trainer
 from learners.som import VisuomotorSOM
 
 from controllers import SPECS, make_controller
@@ -32,7 +33,7 @@ DEFAULT_SEED = 20_000
 
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--run", type=Path, help="a training run folder (som.npz, trainer.json)")
+    p.add_argument("--run", type=Path, help="a training run folder (som.npz, metrics.jsonl)")
     p.add_argument("--controller", help=f"instead of --run: {SPECS}")
     p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
     p.add_argument("--env", help="default: the run's env")
@@ -59,7 +60,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     run_config = {}
     if args.run is not None:
-        run_config = json.loads((args.run / STATE_FILE).read_text())["config"]
+        run_config = vars(Trainer.stored_config(args.run))
     env_id = args.env or run_config.get("env", "RiacsReach-v0")
     sensing = args.sensing or run_config.get("sensing", "project")
     control = args.control or run_config.get("control", "kinematic")
@@ -126,4 +127,4 @@ def write_plots(env, som: VisuomotorSOM, result, run: Path | None, out: Path) ->
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

@@ -1,23 +1,31 @@
 """Train the visuomotor SOM on a reach env, headless, with checkpoints and held-out evaluations.
 
-    python scripts/train.py --env RiacsReach-v0 --trials 10000 --out runs/riacs
-    python scripts/train.py --out runs/riacs --resume        # continue an interrupted run
+    .venv/bin/python scripts/train.py --env RiacsReach-v0 --trials 10000 --out runs/riacs
+    .venv/bin/python scripts/train.py --out runs/riacs --resume   # continue a stopped run
 
-Writes OUT/som.npz (the map), OUT/trainer.json (where the run stands) and OUT/metrics.jsonl
-(a held-out evaluation every --eval-every trials: errors after the coarse move and each fine
-move in mm, % of the robot's reach and pixels).
+Writes OUT/som.npz (the checkpoint: the map, where the run stands, the simulation state; it
+loads as a map) and OUT/metrics.jsonl (a held-out evaluation every --eval-every trials: errors
+after the coarse move and each fine move in mm, % of the robot's reach and pixels).
+
+Ctrl-C or SIGTERM finishes the current trial, saves and exits (130 or 143); --resume then
+continues exactly as if the run had never stopped, also after a kill or a power cut. One
+process at a time may write to OUT; a fresh run refuses a folder that holds a run unless
+--force. On --resume only --trials (to extend the run) and --checkpoint-every may change.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import fields
 from pathlib import Path
 
+import cli
 from tqdm import tqdm
 
-import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
-from envs.training import RunConfig, Trainer
+import envs  # noqa: F401  (registers the envs)
+from envs.stopping import SignalStop, StopRequested
+from envs.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
 
 
 def parse_lattice(text: str) -> tuple[int, ...]:
@@ -32,12 +40,29 @@ def parse_lattice(text: str) -> tuple[int, ...]:
     return shape
 
 
+def _text(value: object) -> str:
+    """A setting as it is written on the command line."""
+    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
+
+
+def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str]) -> list[str]:
+    """Options given with --resume that differ from the run's and may not change."""
+    out = []
+    for f in fields(RunConfig):
+        if f.name in given and f.name not in RESUMABLE:
+            ours, theirs = getattr(args, f.name), getattr(stored, f.name)
+            if ours != theirs:
+                name = f.name.replace("_", "-")
+                out.append(f"--{name} {_text(ours)} (the run has {_text(theirs)})")
+    return out
+
+
 def main(argv: list[str] | None = None) -> Path:
     d = RunConfig()
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__)
     p.add_argument("--env", default=d.env, choices=("RiacsReach-v0", "PumaReach-v0"))
-    p.add_argument("--trials", type=int, default=d.trials)
-    p.add_argument("--seed", type=int, default=d.seed)
+    p.add_argument("--trials", type=cli.positive_int, default=d.trials)
+    p.add_argument("--seed", type=cli.nonnegative_int, default=d.seed)
     p.add_argument("--lattice", type=parse_lattice, default=d.lattice, help="e.g. 12,7,4")
     p.add_argument("--rule", default=d.rule, choices=("mrs", "brause"))
     p.add_argument(
@@ -50,23 +75,44 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--sensing", default=d.sensing, choices=("render", "project"))
     p.add_argument("--control", default=d.control, choices=("servo", "kinematic"))
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
-    p.add_argument("--eval-every", type=int, default=d.eval_every)
-    p.add_argument("--eval-trials", type=int, default=d.eval_trials)
-    p.add_argument("--checkpoint-every", type=int, default=1000)
+    p.add_argument("--eval-every", type=cli.positive_int, default=d.eval_every, help="trials")
+    p.add_argument("--eval-trials", type=cli.positive_int, default=d.eval_trials, help="targets")
+    p.add_argument("--checkpoint-every", type=cli.positive_int, default=1000, help="trials")
     p.add_argument("--out", type=Path, default=Path("runs/train"))
     p.add_argument("--resume", action="store_true", help="continue the run saved in --out")
+    p.add_argument("--force", action="store_true", help="start over in a folder holding a run")
     args = p.parse_args(argv)
 
-    if args.resume:
-        trainer = Trainer.resume(args.out)
-    else:
-        config = RunConfig(
-            env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
-            trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
-            protocol=args.protocol,
-            eval_every=args.eval_every, eval_trials=args.eval_trials,
-        )  # fmt: skip
-        trainer = Trainer(config, args.out)
+    with SignalStop() as stop:
+        if args.resume:
+            given = cli.given_options(p, argv)
+            if args.force:
+                cli.fail("--force starts a run over; it cannot be combined with --resume")
+            conflicts = resume_conflicts(Trainer.stored_config(args.out), args, given)
+            if conflicts:
+                cli.fail(
+                    f"on --resume only --trials and --checkpoint-every may change, but "
+                    f"{'; '.join(conflicts)}; leave them out or train a new run"
+                )
+            trainer = Trainer.resume(args.out, args.trials if "trials" in given else None)
+        else:
+            config = RunConfig(
+                env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
+                trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
+                protocol=args.protocol,
+                eval_every=args.eval_every, eval_trials=args.eval_trials,
+            )  # fmt: skip
+            trainer = Trainer(config, args.out, force=args.force)
+        try:
+            train(trainer, args.checkpoint_every, stop)
+        finally:
+            trainer.close()
+    print(f"trained {trainer.trial} trials; map in {args.out / MAP_FILE}")
+    return args.out
+
+
+def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:
+    """Run ``trainer`` with a progress bar; on a stop signal say where it stopped and exit."""
     bar = tqdm(
         total=trainer.config.trials,
         initial=trainer.trial,
@@ -84,17 +130,13 @@ def main(argv: list[str] | None = None) -> Path:
         bar.update(trial - bar.n)
 
     try:
-        trainer.run(checkpoint_every=args.checkpoint_every, progress=progress)
-    except KeyboardInterrupt:
+        trainer.run(checkpoint_every=checkpoint_every, progress=progress, stop=stop)
+    except StopRequested as exc:
         bar.close()
-        print(f"\ninterrupted at trial {trainer.trial}; checkpoint saved, continue with --resume")
-        raise SystemExit(130) from None
-    finally:
-        trainer.close()
+        print(f"{exc} at trial {trainer.trial}; checkpoint saved, continue with --resume")
+        raise SystemExit(exc.exit_code) from None
     bar.close()
-    print(f"trained {trainer.trial} trials; map in {args.out / 'som.npz'}")
-    return args.out
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import cli
 import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
@@ -57,4 +58,4 @@ def main(argv: list[str] | None = None) -> Path:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

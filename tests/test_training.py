@@ -1,15 +1,20 @@
-"""Training runs: checkpoints, Ctrl-C and --resume give the arrays of an uninterrupted run, bit
-for bit; held-out metrics are logged as documented; a trained map beats the initial one."""
+"""Training runs: checkpoints, a stop signal and --resume give the arrays of an uninterrupted run,
+bit for bit; held-out metrics are logged as documented; a trained map beats the initial one."""
 
 from __future__ import annotations
 
 import json
+import os
+import signal
 
 import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
-from envs.training import MAP_FILE, METRICS_FILE, STATE_FILE, RunConfig, Trainer
+from envs.checkpoint import read_unit
+from envs.runfolder import RunFolderError
+from envs.stopping import StopRequested
+from envs.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
 from learners.persistence import CheckpointError
 from learners.som import VisuomotorSOM
 
@@ -37,14 +42,15 @@ def uninterrupted(tmp_path_factory):
     return out
 
 
-def test_resume_after_ctrl_c_is_bit_identical(uninterrupted, tmp_path):
+def test_resume_after_sigint_is_bit_identical(uninterrupted, tmp_path):
     def interrupt(trial, running):
         if trial == 27:
-            raise KeyboardInterrupt
+            os.kill(os.getpid(), signal.SIGINT)  # a real signal, noted by the trainer's handler
 
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(StopRequested) as stopped:
         _train(SMALL, tmp_path, checkpoint_every=1000, progress=interrupt)
-    assert json.loads((tmp_path / STATE_FILE).read_text())["trial"] == 27
+    assert stopped.value.exit_code == 130
+    assert read_unit(tmp_path / MAP_FILE)[0]["trial"] == 27
     trainer = Trainer.resume(tmp_path)
     trainer.run(checkpoint_every=1000)
     trainer.close()
@@ -54,8 +60,8 @@ def test_resume_after_ctrl_c_is_bit_identical(uninterrupted, tmp_path):
 
 
 def test_resume_after_a_crash_redoes_from_the_last_periodic_checkpoint(tmp_path):
-    """A crash (not Ctrl-C) leaves the checkpoint of trial 20 and metrics up to trial 30; the
-    resumed run drops the row of trial 30 and ends as an unbroken run does."""
+    """A crash leaves the checkpoint of trial 20 and metrics up to trial 30 with a torn last
+    line; the resumed run drops both and ends as an unbroken run does."""
     config = RunConfig(**{**SMALL.__dict__, "trials": 40, "eval_every": 10})
     reference = _train(config, tmp_path / "reference", checkpoint_every=20).out
 
@@ -65,6 +71,8 @@ def test_resume_after_a_crash_redoes_from_the_last_periodic_checkpoint(tmp_path)
 
     with pytest.raises(RuntimeError):
         _train(config, tmp_path / "crashed", checkpoint_every=20, progress=crash)
+    with open(tmp_path / "crashed" / METRICS_FILE, "a") as f:
+        f.write('{"trial": 40, "lea')  # a write cut short by a full disk
     trainer = Trainer.resume(tmp_path / "crashed")
     assert trainer.trial == 20
     trainer.run(checkpoint_every=20)
@@ -98,15 +106,26 @@ def test_same_seed_same_map_and_different_seed_different_map(uninterrupted, tmp_
     assert not np.array_equal(_arrays(tmp_path / "other" / MAP_FILE)[0], same[0])
 
 
-def test_resume_without_checkpoint_or_with_mismatched_files_is_a_clear_error(
-    uninterrupted, tmp_path
-):
+def test_resume_without_checkpoint_or_with_lost_metrics_is_a_clear_error(uninterrupted, tmp_path):
     with pytest.raises(CheckpointError, match="no checkpoint"):
         Trainer.resume(tmp_path)
-    # trainer.json from one moment, som.npz from another: refused, not silently mixed.
-    state = json.loads((uninterrupted / STATE_FILE).read_text())
-    state["learn_calls"] += 1
-    (tmp_path / STATE_FILE).write_text(json.dumps(state))
     (tmp_path / MAP_FILE).write_bytes((uninterrupted / MAP_FILE).read_bytes())
-    with pytest.raises(CheckpointError, match="different moments"):
+    (tmp_path / METRICS_FILE).write_text(
+        "".join((uninterrupted / METRICS_FILE).open().readlines()[:2])
+    )
+    with pytest.raises(CheckpointError, match="2 readable rows, the checkpoint counts 4"):
         Trainer.resume(tmp_path)
+
+
+def test_a_used_folder_is_refused_unless_forced_and_a_held_one_always(uninterrupted, tmp_path):
+    before = (uninterrupted / METRICS_FILE).read_bytes()
+    with pytest.raises(RunFolderError, match=r"already holds a run.*--force"):
+        Trainer(SMALL, uninterrupted)
+    assert (uninterrupted / METRICS_FILE).read_bytes() == before
+    holder = Trainer(SMALL, tmp_path)
+    try:
+        with pytest.raises(RunFolderError, match=f"in use by process {os.getpid()}"):
+            Trainer.resume(tmp_path)
+    finally:
+        holder.close()
+    Trainer(SMALL, tmp_path, force=True).close()  # released: usable again, and forced
