@@ -34,8 +34,13 @@ SETTINGS = [
                         "300", "--eval-every", "60", "--eval-trials", "5"], 10),
 ]  # fmt: skip
 COMMON = ["--lattice", "4,3,2", "--checkpoint-every", "7", "--seed", "5"]
-if SOAK:
-    SETTINGS = [(name, opts, 10 * n) for name, opts, n in SETTINGS]
+if SOAK:  # ten times the trials and the signals
+
+    def _longer(options: list[str]) -> list[str]:
+        i = options.index("--trials") + 1
+        return [*options[:i], str(10 * int(options[i])), *options[i + 1 :]]
+
+    SETTINGS = [(name, _longer(opts), 10 * n) for name, opts, n in SETTINGS]
 
 
 def _command(out: Path, options: list[str]) -> list[str]:
