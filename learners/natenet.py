@@ -49,9 +49,13 @@ from pathlib import Path
 
 import numpy as np
 
-from learners.persistence import load_npz, save_npz
+from learners.guards import check_finite, positive_int
+from learners.persistence import CheckpointError, load_npz, save_npz
 
 KIND, FORMAT_VERSION = "NATEnet", 1
+#: Largest magnitude of an input (joint angle, rad), joint move (rad) or TCP move (m, rad): far
+#: beyond any arm, and small enough that squared distances cannot overflow.
+MAX_MAGNITUDE = 1e3
 #: Defaults (the seed gives no numbers; these were tuned on PumaTrack-v0, see the report).
 LAMBDA = 0.87  # width factor: Platt's (1991) κ for the resource-allocating network
 ETA = 0.5  # delta-rule rate
@@ -74,6 +78,11 @@ class LearnResult:
 def _finite(name: str, a: np.ndarray) -> None:
     if not np.isfinite(a).all():
         raise ValueError(f"{name} contains NaN or inf; pass finite joint angles and TCP moves")
+    if a.size and np.abs(a).max() > MAX_MAGNITUDE:
+        raise ValueError(
+            f"{name} holds {np.abs(a).max():g}, beyond {MAX_MAGNITUDE:g} (rad or m); pass joint "
+            "angles and moves in radians and metres"
+        )
 
 
 class NATEnet:
@@ -107,6 +116,12 @@ class NATEnet:
         sigma_init: float = SIGMA_INIT,
         allocate: bool = True,
     ) -> None:
+        check_finite(lam=lam, eta=eta, T0=T0, e_f=e_f, tau=tau, T_a=T_a, sigma_init=sigma_init)
+        input_dim, max_nodes = (
+            positive_int("input_dim", input_dim),
+            positive_int("max_nodes", max_nodes),
+        )
+        output_shape = tuple(positive_int("output_shape", n) for n in output_shape)
         checks = {
             "input_dim": input_dim >= 1,
             "lam": lam > 0,
@@ -294,9 +309,30 @@ class NATEnet:
     def load(cls, path: str | os.PathLike) -> NATEnet:
         """Read a net written by :meth:`save`; raises ``CheckpointError`` on a bad file."""
         config, arrays = load_npz(path, KIND, FORMAT_VERSION)
-        net = cls(**config)
-        net.centres, net.widths = arrays["centres"], arrays["widths"]
-        net.outputs, net.steps = arrays["outputs"], int(arrays["steps"])
+        try:
+            net = cls(**config)
+            centres, widths = arrays["centres"], arrays["widths"]
+            outputs, steps = arrays["outputs"], arrays["steps"]
+            n = len(centres)
+            shapes = {
+                "centres": (centres, (n, net.input_dim)),
+                "widths": (widths, (n,)),
+                "outputs": (outputs, (n, *net.output_shape)),
+            }
+            for name, (a, shape) in shapes.items():
+                if a.shape != shape or a.dtype != np.float64:
+                    raise ValueError(f"{name} is {a.dtype} {a.shape}, the net needs {shape}")
+                check_finite(**{name: a})
+            if n > net.max_nodes or not np.all(widths > 0):
+                raise ValueError(f"{n} nodes (budget {net.max_nodes}) or a width <= 0")
+            if steps.shape != () or steps.dtype.kind not in "iu" or steps < 0:
+                raise ValueError(f"steps is {steps!r}, not a count")
+        except (KeyError, TypeError, ValueError) as exc:
+            raise CheckpointError(
+                f"{path}: incomplete or inconsistent NATEnet checkpoint ({exc}); restore it "
+                "from a copy or retrain"
+            ) from exc
+        net.centres, net.widths, net.outputs, net.steps = centres, widths, outputs, int(steps)
         return net
 
 

@@ -78,9 +78,17 @@ def load_npz(
     if not path.is_file():
         raise CheckpointError(f"{path}: no such file; check the path or train a model first")
     try:
-        with np.load(path, allow_pickle=False) as z:
+        loaded = np.load(path, allow_pickle=False)
+        if not isinstance(loaded, np.lib.npyio.NpzFile):  # a .npy (one array) under this name
+            raise CheckpointError(
+                f"{path}: a single numpy array, not a checkpoint archive; pass the .npz that "
+                "save() wrote"
+            )
+        with loaded as z:
             contents = {k: z[k] for k in z.files}
     except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
+        if isinstance(exc, CheckpointError):
+            raise
         raise CheckpointError(
             f"{path}: damaged or truncated ({exc}); restore it from a copy or retrain"
         ) from exc
@@ -89,9 +97,15 @@ def load_npz(
     found = str(contents.pop(_KIND))
     if found != kind:
         raise CheckpointError(f"{path}: holds a {found!r}, not a {kind!r}")
-    found_version = int(contents.pop(_VERSION))
+    try:
+        found_version = int(contents.pop(_VERSION))
+        config = json.loads(str(contents.pop(_CONFIG)))
+    except (TypeError, ValueError) as exc:
+        raise CheckpointError(f"{path}: damaged version or configuration ({exc})") from exc
     if found_version != version:
         raise CheckpointError(
             f"{path}: format version {found_version}, this code reads version {version}"
         )
-    return json.loads(str(contents.pop(_CONFIG))), contents
+    if not isinstance(config, dict):
+        raise CheckpointError(f"{path}: the configuration is {type(config).__name__}, not a dict")
+    return config, contents

@@ -76,6 +76,7 @@ import numpy as np
 
 from learners import kernels
 from learners.base import Controller, check_pixels
+from learners.guards import InputBox, check_finite
 from learners.lattice import Lattice
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.schedules import Continual, ErrorMonitor, Schedule, harmonic
@@ -141,6 +142,32 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     view = array.view()
     view.flags.writeable = False
     return view
+
+
+#: Configuration entries of a saved map and their JSON types; a file that lacks one or holds
+#: another type is damaged (hand-edited or foreign). Later versions may add entries.
+_CONFIG_TYPES: dict[str, type | tuple[type, ...]] = {
+    "lattice": list, "input_dim": int, "rule": str, "averaging": str, "refine": bool,
+    "t_max": int, "schedules": dict, "a_init": (int, float), "min_dv": (int, float), "t": int,
+    "skipped": dict, "rng_state": dict,
+}  # fmt: skip
+#: numpy bit generators a saved map may name (never an arbitrary numpy.random attribute).
+_BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
+
+
+def _check_config(config: dict[str, Any]) -> None:
+    """ValueError for a saved configuration with a missing entry, a wrong type or a count < 0."""
+    for key, kind in _CONFIG_TYPES.items():
+        value = config[key]
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            raise ValueError(f"config entry {key!r} is {value!r}, not of type {kind}")
+    counts = config["skipped"]
+    if config["t"] < 0 or set(counts) != {"not_visible", "small_dv"}:
+        raise ValueError(f"t = {config['t']} or skipped = {counts} is not a valid count")
+    if not all(isinstance(n, int) and n >= 0 for n in counts.values()):
+        raise ValueError(f"skipped = {counts} holds counts that are not integers >= 0")
+    if config["rng_state"].get("bit_generator") not in _BIT_GENERATORS:
+        raise ValueError(f"unknown bit generator in {config['rng_state']}")
 
 
 class VisuomotorSOM(Controller):
@@ -213,6 +240,7 @@ class VisuomotorSOM(Controller):
             raise ValueError(f"unknown averaging {averaging!r}; valid: {', '.join(AVERAGING)}")
         self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
         self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
+        check_finite(joint_lower=self.lower, joint_upper=self.upper, a_init=a_init, min_dv=min_dv)
         if self.lower.shape != self.upper.shape or not np.all(self.lower < self.upper):
             raise ValueError(
                 f"joint_lower {self.lower} and joint_upper {self.upper} need one entry per joint "
@@ -233,16 +261,27 @@ class VisuomotorSOM(Controller):
         self.explore = Schedule.of(explore)
         self.gamma = Schedule.of(gamma)
         harmonic(self.gamma.initial, self.gamma.final, 0, self.t_max)  # raises for a bad gamma
+        self._check_schedules()
         self.min_dv, self.a_init = float(min_dv), float(a_init)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         D, J = self.input_dim, self.n_joints
         low = np.zeros(D) if input_low is None else np.array(input_low, dtype=float).ravel()
         high = np.ones(D) if input_high is None else np.array(input_high, dtype=float).ravel()
+        check_finite(input_low=low, input_high=high)
         if low.shape != (D,) or high.shape != (D,) or not np.all(low < high):
             raise ValueError(f"input_low/input_high must be ({D},) with low < high: {low}, {high}")
         self.input_low, self.input_high = low, high
+        self._input_box = InputBox(low, high, "input box")
+        self._joint_box = InputBox(self.lower, self.upper, "joint ranges")
+        # u, θ0, v0, θ1, v1 of a trial side by side, checked at once
+        self._trial_box = InputBox(
+            np.concatenate((low, self.lower, low, self.lower, low)),
+            np.concatenate((high, self.upper, high, self.upper, high)),
+            "trial's input box and joint ranges",
+        )
         start = (self.lower + self.upper) / 2 if theta_init is None else theta_init
         start = np.array(start, dtype=float).ravel()
+        check_finite(theta_init=start)
         if start.shape != (J,):
             raise ValueError(f"theta_init must have shape ({J},), got {start.shape}")
         self._grid = Lattice(self.lattice)
@@ -266,6 +305,15 @@ class VisuomotorSOM(Controller):
         self._sync()
         self.reset()
 
+    def _check_schedules(self) -> None:
+        """Schedules with finite values; learning rates ε, ε' at most 1 (a step past the target)."""
+        for name in ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma"):
+            schedule = getattr(self, name)
+            check_finite(**{name: (schedule.initial, schedule.final)})
+        for name in ("eps", "eps_out"):
+            if max(getattr(self, name).initial, getattr(self, name).final) > 1.0:
+                raise ValueError(f"{name} is a learning rate in [0, 1], got {getattr(self, name)}")
+
     # ----------------------------------------------------------------------------- state
     @property
     def w(self) -> np.ndarray:
@@ -274,7 +322,9 @@ class VisuomotorSOM(Controller):
 
     @w.setter
     def w(self, value: np.ndarray) -> None:
-        self._w = self._checked("w", value, self._w.shape)
+        w = self._checked("w", value, self._w.shape)
+        self._input_box.check("w", w)
+        self._w = w
         self._sync()
 
     @property
@@ -354,11 +404,24 @@ class VisuomotorSOM(Controller):
         self._cmd_before: np.ndarray | None = None  # command before the last fine one
 
     def _vector(self, name: str, x: np.ndarray) -> np.ndarray:
-        """x as a finite (D,) float array, else ValueError saying what is wrong."""
+        """x as a finite (D,) float array in the input box, else ValueError saying what is
+        wrong."""
         a = np.asarray(x, dtype=float)
-        if a.shape == (self.input_dim,) and math.isfinite(a @ a):
-            return a
-        return check_pixels(name, a, self.input_dim)  # raises, naming the problem
+        if not (a.shape == (self.input_dim,) and math.isfinite(a @ a)):
+            check_pixels(name, a, self.input_dim)  # raises for a wrong shape or NaN, naming it
+        self._input_box.check(name, a)
+        return a
+
+    def _check_trial(self, *arrays: np.ndarray) -> None:
+        """ValueError if a finite one of u, θ0, v0, θ1, v1 lies far outside the input box or
+        the joint ranges (NaN and inf are left to the other checks: not seen, or refused)."""
+        if self._trial_box.inside(np.concatenate(arrays)):  # one test for the usual case
+            return
+        names = ("u", "theta0", "v0", "theta1", "v1")
+        boxes = (self._input_box, self._joint_box, self._input_box, self._joint_box)
+        for name, box, a in zip(names, (*boxes, self._input_box), arrays, strict=True):
+            if np.isfinite(a).all():
+                box.check(name, a)
 
     def _clip(self, theta: np.ndarray) -> np.ndarray:
         return np.minimum(np.maximum(theta, self.lower), self.upper)
@@ -464,6 +527,7 @@ class VisuomotorSOM(Controller):
             raise ValueError(f"U must have shape (M, {self.input_dim}), got {U.shape}")
         if not np.all(np.isfinite(U)):
             raise ValueError("U contains NaN or inf; pass sensed pixels of visible targets")
+        self._input_box.check("U", U)
         out = np.empty((len(U), self.n_joints))
         for i in range(0, len(U), _BATCH_BLOCK):
             out[i : i + _BATCH_BLOCK] = self._coarse_batch(U[i : i + _BATCH_BLOCK])
@@ -502,12 +566,15 @@ class VisuomotorSOM(Controller):
             |v1 − v0| < ``min_dv``. Only learned trials advance t.
         Raises:
             ValueError: u not finite or not (D,), θ0/θ1 not finite or not (J,), v0/v1 not
-                (D,); the map is then unchanged.
+                (D,), or any of them far outside the input box or joint ranges
+                (``learners.guards``); the map is then unchanged.
         """
         D, J = self.input_dim, self.n_joints
         u, v0, v1 = np.asarray(u, dtype=float), np.asarray(v0, dtype=float), np.asarray(v1, float)
         theta0, theta1 = np.asarray(theta0, dtype=float), np.asarray(theta1, dtype=float)
         fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
+        if fast_ok and v0.shape == (D,) == v1.shape:
+            self._check_trial(u, theta0, v0, theta1, v1)
         if (
             self.kernel == "numba"
             and self.protocol == "mrs"
@@ -700,6 +767,7 @@ class VisuomotorSOM(Controller):
         """
         config, arrays = load_npz(path, KIND, FORMAT_VERSION)
         try:
+            _check_config(config)
             state = config["rng_state"]
             bit_generator = getattr(np.random, state["bit_generator"])()
             bit_generator.state = state
@@ -729,17 +797,25 @@ class VisuomotorSOM(Controller):
                         f"configuration needs float64 {shape}; the file is damaged or foreign"
                     )
                 setattr(som, name, stored)  # copies, checks finiteness, refreshes caches
-            som.t = int(config["t"])
-            som.skipped = {k: int(n) for k, n in config["skipped"].items()}
+            if not np.all((som.lower <= som.theta) & (som.theta <= som.upper)):
+                raise ValueError("theta lies outside the stored joint ranges")
+            som.t = config["t"]
+            som.skipped = dict(config["skipped"])
             if som.monitor is not None:
                 som.monitor = ErrorMonitor(som.monitor.params, config["continual_state"])
             som.rng = np.random.Generator(bit_generator)
+            J, D = som.n_joints, som.input_dim
+            shapes = {"_u": (D,), "_cmd": (J,), "_abar": (J, D), "_v": (D,), "_cmd_before": (J,)}
             for k in cls._MEMORY:
-                setattr(som, k, arrays[k].copy() if k in arrays else None)
+                memory = arrays.get(k)
+                if memory is not None and (memory.shape != shapes[k] or memory.dtype != float):
+                    raise ValueError(f"{k} is {memory.dtype} {memory.shape}, not {shapes[k]}")
+                check_finite(**{k: 0.0 if memory is None else memory})
+                setattr(som, k, None if memory is None else memory.copy())
             som._sync()
         except CheckpointError:
             raise
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
             raise CheckpointError(
                 f"{path}: incomplete or inconsistent VisuomotorSOM checkpoint ({exc!r}); "
                 "restore it from a copy or retrain"

@@ -1,0 +1,59 @@
+"""Checks the learners share: numbers that must be finite, and inputs that must lie in (a wide
+margin around) the box the learner was built for. A finite but absurd input (say u = 1e200
+pixels) would otherwise pass every NaN check and wreck every neuron it reaches."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: Inputs more than this many box sizes outside a learner's input box are refused (e.g. pixels
+#: beyond 10 image widths: no camera senses those).
+INPUT_MARGIN = 10.0
+
+
+def check_finite(**values: object) -> None:
+    """ValueError naming every argument that is not finite (NaN or ±inf anywhere in it)."""
+    bad = [k for k, v in values.items() if not np.all(np.isfinite(np.asarray(v, dtype=float)))]
+    if bad:
+        raise ValueError(f"{', '.join(bad)} must be finite, got " + ", ".join(
+            f"{k}={values[k]!r}" for k in bad
+        ))  # fmt: skip
+
+
+class InputBox:
+    """[low − m·(high − low), high + m·(high − low)] per component, m = ``INPUT_MARGIN``."""
+
+    def __init__(self, low: np.ndarray, high: np.ndarray, what: str) -> None:
+        low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+        self.low, self.high, self.what = low, high, what
+        self.centre = (low + high) / 2
+        self.inv_half = 1.0 / ((high - low) * (INPUT_MARGIN + 0.5))
+
+    def inside(self, a: np.ndarray) -> bool:
+        """Whether every component of ``a`` (..., n) lies in the box (False for NaN)."""
+        return bool(np.max(np.abs(a - self.centre) * self.inv_half, initial=0.0) <= 1.0)
+
+    def check(self, name: str, a: np.ndarray) -> None:
+        """ValueError naming ``a`` (or its first bad row) if it is outside the box."""
+        if self.inside(a):
+            return
+        a = np.asarray(a, dtype=float)
+        if a.ndim > 1:
+            rows = a.reshape(-1, a.shape[-1])
+            row = next(i for i, r in enumerate(rows) if not self.inside(r))
+            name, a = f"row {row} of {name}", rows[row]
+        raise ValueError(
+            f"{name} = {a.tolist()} lies more than {INPUT_MARGIN:g} box sizes outside the "
+            f"{self.what} [{self.low.tolist()}, {self.high.tolist()}]; pass values in the units "
+            "the learner was built for"
+        )
+
+
+def positive_int(name: str, value: object) -> int:
+    """``value`` as an int >= 1 (an integral float is accepted), else ValueError."""
+    number = float(value)  # type: ignore[arg-type]
+    if not (math.isfinite(number) and number >= 1 and number == int(number)):
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    return int(number)
