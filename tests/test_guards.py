@@ -116,7 +116,7 @@ def test_som_load_raises_checkpoint_error_for_every_damage(tmp_path, edit):
     path = m.save(tmp_path / "good.npz")
     bad = _rewrite(path, tmp_path, "bad.npz", edit)
     before = bad.read_bytes()
-    with pytest.raises(CheckpointError, match="bad.npz"):
+    with pytest.raises(CheckpointError, match=r"bad\.npz"):
         VisuomotorSOM.load(bad)
     assert bad.read_bytes() == before
 
@@ -188,5 +188,5 @@ NET_DAMAGE = {
 def test_natenet_load_raises_checkpoint_error_for_every_damage(tmp_path, edit):
     path = net().save(tmp_path / "net.npz")
     bad = _rewrite(path, tmp_path, "bad.npz", edit)
-    with pytest.raises(CheckpointError, match="bad.npz"):
+    with pytest.raises(CheckpointError, match=r"bad\.npz"):
         NATEnet.load(bad)
