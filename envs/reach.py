@@ -9,6 +9,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
+from envs import arguments
 from envs.composite import CompositeView
 from envs.markers import GREEN_EFFECTOR, RED_TARGET
 from envs.perturb import Perturbation, SceneEditor
@@ -25,6 +26,11 @@ SETTLE_WINDOW = 0.02  # s ... for this long (not just at a turning point of an o
 MIN_SETTLE_TIME = 0.02  # s ... after at least this much simulated time,
 MAX_SETTLE_TIME = 2.0  # s ... or at this cap.
 MAX_EPISODE_STEPS = 4  # moves: one coarse and up to three fine
+#: ``reset(options=...)`` keys and the test each value must pass.
+RESET_OPTIONS = {
+    "keep_arm": lambda value: isinstance(value, (bool, np.bool_)),
+    "perturb": lambda value: value is None or isinstance(value, (Perturbation, dict)),
+}
 
 
 class ReachEnv(gym.Env):
@@ -117,25 +123,22 @@ class ReachEnv(gym.Env):
         image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH),
         render_mode: str | None = None,
     ) -> None:
-        if robot not in ROBOTS:
+        if not isinstance(robot, str) or robot not in ROBOTS:
             raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
         self.spec_robot: RobotSpec = ROBOTS[robot]
-        if joints not in self.spec_robot.joint_options:
+        if isinstance(joints, bool) or joints not in self.spec_robot.joint_options:
             raise ValueError(
                 f"{robot} can control {self.spec_robot.joint_options} joints, not {joints!r}"
             )
-        if sensing not in SENSING_MODES:
+        if not isinstance(sensing, str) or sensing not in SENSING_MODES:
             raise ValueError(f"unknown sensing {sensing!r}; valid: {', '.join(SENSING_MODES)}")
-        if control not in CONTROL_MODES:
+        if not isinstance(control, str) or control not in CONTROL_MODES:
             raise ValueError(f"unknown control {control!r}; valid: {', '.join(CONTROL_MODES)}")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
-        height, width = (int(n) for n in image_size)
-        if height < 16 or width < 16:
-            raise ValueError(f"image_size is (height, width) >= (16, 16) pixels, got {image_size}")
+        height, width = arguments.image_size(image_size)
         self.image_height, self.image_width = height, width
-        if not success_threshold > 0:
-            raise ValueError(f"success_threshold must be > 0 m, got {success_threshold!r}")
+        arguments.positive_number("success_threshold (m)", success_threshold)
         self.robot, self.joints, self.sensing, self.control = robot, joints, sensing, control
         self.success_threshold = float(success_threshold)
         self.render_mode = render_mode
@@ -191,8 +194,10 @@ class ReachEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        options = arguments.reset_options(
+            options, RESET_OPTIONS, "{'keep_arm': bool, 'perturb': Perturbation | dict | None}"
+        )
         super().reset(seed=seed)
-        options = options or {}
         if "perturb" in options:
             self.perturb(options["perturb"])
         target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
@@ -287,7 +292,7 @@ class ReachEnv(gym.Env):
             self.model.geom_group[self.model.geom(name).id] = 5
 
     def _check_action(self, action: np.ndarray) -> tuple[np.ndarray, bool]:
-        a = np.asarray(action, dtype=float)
+        a = arguments.real_array("action", action)
         if a.shape != (self.joints,):
             raise ValueError(
                 f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "

@@ -13,6 +13,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
+from envs import arguments
 from envs.markers import GREEN_EFFECTOR
 from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, CameraRenderer
 from envs.stereo import PinholeCamera, StereoRig
@@ -109,8 +110,12 @@ class PumaTrackEnv(gym.Env):
             raise ValueError(f"path_kind must be one of {PATH_CHOICES}, got {path_kind!r}")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        n_steps = arguments.positive_int("n_steps", n_steps)
+        dt = arguments.positive_number("dt (s)", dt)
+        if circle_radius is not None:
+            circle_radius = arguments.positive_number("circle_radius (m)", circle_radius)
         self.render_mode, self.sensing, self.path_kind = render_mode, sensing, path_kind
-        self.n_steps, self.dt, self.circle_radius = int(n_steps), float(dt), circle_radius
+        self.n_steps, self.dt, self.circle_radius = n_steps, dt, circle_radius
         self.model = load_model("puma560")
         # The wrist marker would merge with the tcp marker in the images: move it to group 5,
         # which no camera of this env draws.
@@ -184,8 +189,10 @@ class PumaTrackEnv(gym.Env):
 
     # -- gymnasium API ------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        options = arguments.reset_options(
+            options, {"path": lambda p: isinstance(p, Path)}, "{'path': models.paths.Path}"
+        )
         super().reset(seed=seed)
-        options = options or {}
         if "path" in options:
             self.path = options["path"]
         else:
@@ -207,7 +214,7 @@ class PumaTrackEnv(gym.Env):
     def step(self, action: np.ndarray):
         if self.path is None:
             raise RuntimeError("call reset() before step()")
-        action = np.asarray(action, dtype=float)
+        action = arguments.real_array("action", action)
         if action.shape != (6,) or not np.isfinite(action).all():
             raise ValueError(f"action must be 6 finite joint increments (rad), got {action!r}")
         delta = np.clip(action, -MAX_JOINT_STEP, MAX_JOINT_STEP)
