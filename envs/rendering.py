@@ -1,20 +1,29 @@
-"""Off-screen rendering without a display: back-end choice and a fast camera renderer.
+"""Off-screen rendering without a display: the GL back-end, started lazily, and a fast camera
+renderer.
 
-``MUJOCO_GL`` is read by mujoco when it is imported, so :func:`configure_gl_backend` runs when
-``envs`` is imported, before mujoco: it keeps a back-end the caller chose and otherwise picks EGL,
-then OSMesa, whichever library is installed.
+No GL library is loaded until a renderer is first needed: :func:`configure_gl_backend` (run by
+``import envs``) lets mujoco be imported with ``MUJOCO_GL=disable`` and puts a lazy ``GLContext``
+in its place, so exact-projection sensing works whatever ``MUJOCO_GL`` says and whether or not
+a GL library works. The first renderer then starts the back-end the caller chose in
+``MUJOCO_GL`` (or EGL, then OSMesa, whichever library is installed); a library that is missing
+or broken raises :class:`RenderingUnavailableError` naming it and the fix.
 """
 
 from __future__ import annotations
 
+import ctypes
 import ctypes.util
+import importlib
 import os
+import re
 import sys
 from collections.abc import Sequence
 
 import numpy as np
 
 BACKENDS = ("egl", "osmesa")
+#: The library each back-end loads (``lib<name>.so``).
+LIBRARIES = {"egl": "EGL", "osmesa": "OSMesa"}
 #: Geom groups of the scenes: 0 scene, 1 target, 2 robot, 3 collision, 4 effector marker.
 GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_COLLISION, GROUP_MARKER = range(5)
 _HELP = (
@@ -22,44 +31,137 @@ _HELP = (
     "when there is no GPU) or MUJOCO_GL=osmesa after installing the Debian package libosmesa6 "
     "(apt-get install libosmesa6)."
 )
+#: A GL library in /proc/self/maps (loaded by anyone in this process, not only by this module).
+_GL_MAPPED = re.compile(r"/lib(EGL|OSMesa|GLX|GL)[._][^/\n]*$", re.MULTILINE)
 
 
 class RenderingUnavailableError(RuntimeError):
     """No off-screen OpenGL back-end could be started."""
 
 
-#: Whether this process has started an OpenGL context, and whether its parent had when it forked
-#: this process: EGL and OSMesa are not fork-safe, so a context made after such a fork hangs.
+#: Whether this process has started an OpenGL context, and whether its parent had (or had GL
+#: libraries loaded) when it forked this process: EGL and OSMesa are not fork-safe, so a context
+#: made after such a fork hangs.
 _gl_started = False
 _gl_started_before_fork = False
+#: MUJOCO_GL as the caller set it when envs was imported (None: choose at the first render).
+_requested: str | None = None
+_backend: str | None = None  # the started back-end
+
+
+def gl_libraries_loaded() -> bool:
+    """Whether any GL library (libEGL, libOSMesa, libGL, libGLX) is mapped into this process."""
+    try:
+        with open("/proc/self/maps") as maps:
+            return _GL_MAPPED.search(maps.read()) is not None
+    except OSError:  # no /proc: only what this module started is known
+        return False
 
 
 def _after_fork_in_child() -> None:
     global _gl_started_before_fork
-    _gl_started_before_fork = _gl_started_before_fork or _gl_started
+    _gl_started_before_fork = _gl_started_before_fork or _gl_started or gl_libraries_loaded()
 
 
 os.register_at_fork(after_in_child=_after_fork_in_child)
 
 
-def configure_gl_backend() -> str:
-    """Choose MUJOCO_GL (and PyOpenGL's platform) before mujoco is imported; return it."""
-    chosen = os.environ.get("MUJOCO_GL")
+def configure_gl_backend() -> str | None:
+    """Import mujoco without loading a GL library, with a lazy ``GLContext``; returns the
+    back-end the caller asked for in MUJOCO_GL (None: chosen at the first render).
+
+    Run by ``import envs``. If mujoco was imported before with MUJOCO_GL set, the context it
+    loaded is kept (unless it is mujoco's placeholder for a back-end that failed).
+    """
+    global _requested
+    _requested = os.environ.get("MUJOCO_GL")
+    if "mujoco" not in sys.modules:
+        os.environ["MUJOCO_GL"] = "disable"
+        try:
+            import mujoco  # noqa: F401
+        finally:
+            if _requested is None:
+                del os.environ["MUJOCO_GL"]
+            else:
+                os.environ["MUJOCO_GL"] = _requested
+    from mujoco.rendering.classic import gl_context
+
+    current = getattr(gl_context, "GLContext", None)
+    # Replaced: none, mujoco's placeholder for a failed back-end, or its display default (GLFW)
+    # chosen because MUJOCO_GL was unset when mujoco was imported before envs.
+    if current is None or current.__module__ == gl_context.__name__ or _requested is None:
+        _set_gl_context(_lazy_gl_context)
+    return _requested
+
+
+def _set_gl_context(context) -> None:
+    """Make ``context`` the GLContext of mujoco's renderer and of its public names."""
+    import mujoco
+    from mujoco.rendering.classic import gl_context
+
+    gl_context.GLContext = mujoco.GLContext = context
+    if "mujoco.gl_context" in sys.modules:
+        sys.modules["mujoco.gl_context"].GLContext = context
+
+
+def _lazy_gl_context(max_width: int, max_height: int):
+    """Start the back-end, then make a context of it (what mujoco's Renderer calls)."""
+    start_gl_backend()
+    from mujoco.rendering.classic import gl_context
+
+    return gl_context.GLContext(max_width, max_height)
+
+
+def _check_library(backend: str) -> None:
+    """RenderingUnavailableError naming the library if ``backend``'s library is missing or does
+    not load."""
+    name = LIBRARIES[backend]
+    found = ctypes.util.find_library(name)
+    if found is None:
+        raise RenderingUnavailableError(f"MUJOCO_GL={backend}: lib{name} was not found. {_HELP}")
+    try:
+        ctypes.CDLL(found)
+    except OSError as exc:
+        raise RenderingUnavailableError(
+            f"MUJOCO_GL={backend}: lib{name} ({found}) does not load: {exc}. {_HELP}"
+        ) from exc
+
+
+def start_gl_backend() -> str:
+    """Start the GL back-end (once per process) and return its name.
+
+    Raises:
+        RenderingUnavailableError: no back-end library found, or the chosen one missing or broken.
+    """
+    global _backend
+    if _backend is not None:
+        return _backend
+    chosen = _requested
     if chosen is None:
-        libraries = {"egl": "EGL", "osmesa": "OSMesa"}
-        found = [b for b in BACKENDS if ctypes.util.find_library(libraries[b])]
+        found = [b for b in BACKENDS if ctypes.util.find_library(LIBRARIES[b])]
         if not found:
             raise RenderingUnavailableError(f"neither libEGL nor libOSMesa was found. {_HELP}")
         chosen = found[0]
-        if "mujoco" in sys.modules:
-            # Too late to choose: mujoco already picked its default. Say so rather than guess.
-            raise RenderingUnavailableError(
-                f"mujoco was imported before envs with MUJOCO_GL unset. Import envs first or set "
-                f"MUJOCO_GL={chosen} in the environment. {_HELP}"
-            )
-        os.environ["MUJOCO_GL"] = chosen
     if chosen in BACKENDS:
+        _check_library(chosen)
         os.environ.setdefault("PYOPENGL_PLATFORM", chosen)
+    os.environ["MUJOCO_GL"] = chosen
+    from mujoco.rendering.classic import gl_context
+
+    if gl_context.GLContext is _lazy_gl_context:
+        try:
+            if chosen in BACKENDS:
+                context = importlib.import_module(f"mujoco.{chosen}").GLContext
+            else:  # glfw, glx, ...: mujoco's own choice for this MUJOCO_GL
+                context = getattr(importlib.reload(gl_context), "GLContext", None)
+        except Exception as exc:  # PyOpenGL raises many different types for a bad library
+            raise RenderingUnavailableError(
+                f"could not start MUJOCO_GL={chosen}: {exc!r}. {_HELP}"
+            ) from exc
+        if context is None:
+            raise RenderingUnavailableError(f"MUJOCO_GL={chosen} disables rendering. {_HELP}")
+        _set_gl_context(context)
+    _backend = chosen
     return chosen
 
 
@@ -89,12 +191,14 @@ class CameraRenderer:
 
             if _gl_started_before_fork:
                 raise RenderingUnavailableError(
-                    "this process was forked after its parent had started OpenGL, and EGL and "
+                    "this process was forked after its parent had started OpenGL (or loaded a GL "
+                    "library), and EGL and "
                     "OSMesa hang when started again after a fork. Start worker processes with "
                     "'forkserver' or 'spawn', e.g. gymnasium.vector.AsyncVectorEnv(env_fns, "
                     "context='forkserver'), or create them before anything renders."
                 )
 
+            start_gl_backend()
             samples = self.model.vis.quality.offsamples
             if self.fast:  # the sample count is read when the GL context is made
                 self.model.vis.quality.offsamples = 0

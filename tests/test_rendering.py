@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import models
-from envs.rendering import CameraRenderer, RenderingUnavailableError, configure_gl_backend
+from envs.rendering import CameraRenderer
 from models import puma560, riacs
 
 HEIGHT, WIDTH = 240, 320  # px, the sensing image size
@@ -377,31 +377,86 @@ def test_renderer_rejects_images_larger_than_the_buffer():
         assert "offheight" in str(info.value) and f"{width}x{height}" in str(info.value)
 
 
-def test_configure_gl_backend_keeps_the_callers_choice(monkeypatch):
-    monkeypatch.setenv("MUJOCO_GL", "osmesa")
-    monkeypatch.delenv("PYOPENGL_PLATFORM", raising=False)
-    assert configure_gl_backend() == "osmesa"
-    assert os.environ["MUJOCO_GL"] == "osmesa"
-    assert os.environ["PYOPENGL_PLATFORM"] == "osmesa"
+_PROJECT_THEN_RENDER = """
+import envs, gymnasium as gym
+from envs.rendering import RenderingUnavailableError, gl_libraries_loaded
+env = gym.make("RiacsReach-v0", sensing="project", control="kinematic")
+env.reset(seed=0)
+_, _, _, _, info = env.step(env.unwrapped.joint_lower + 0.3)
+print("project", info["visible"], "GL loaded:", gl_libraries_loaded())
+try:
+    gym.make("RiacsReach-v0", sensing="render", control="kinematic").reset(seed=0)
+    print("rendered")
+except RenderingUnavailableError as exc:
+    print("ERROR", exc)
+"""
 
 
-def test_configure_gl_backend_refuses_to_guess_after_mujoco_import(monkeypatch):
-    monkeypatch.delenv("MUJOCO_GL")
-    with pytest.raises(RenderingUnavailableError, match="MUJOCO_GL"):
-        configure_gl_backend()
-    assert "MUJOCO_GL" not in os.environ
+@pytest.mark.parametrize("backend", ["osmesa", "egl"])
+def test_project_sensing_needs_no_gl_and_a_broken_library_is_named(backend, tmp_path):
+    """A folder of broken GL libraries first on LD_LIBRARY_PATH: libEGL and libOSMesa are found
+    but do not load (or are not found at all). Exact projection works, loads no GL library, and
+    rendering raises RenderingUnavailableError naming the library and the fix."""
+    broken = tmp_path / "lib"
+    broken.mkdir()
+    for name in ("libEGL.so.1", "libEGL.so", "libOSMesa.so", "libOSMesa.so.8", "libOSMesa.so.6"):
+        (broken / name).write_bytes(b"not a shared library")
+    env = {"MUJOCO_GL": backend, "LD_LIBRARY_PATH": str(broken)}
+    result = _run(_PROJECT_THEN_RENDER, env, tmp_path)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "project True GL loaded: False"
+    library = {"egl": "libEGL", "osmesa": "libOSMesa"}[backend]
+    assert lines[1].startswith(f"ERROR MUJOCO_GL={backend}: {library}"), lines[1]
+    assert "apt-get install libosmesa6" in lines[1]
 
 
-def test_unset_backend_prefers_egl_then_osmesa(tmp_path):
+def test_unset_backend_prefers_egl_then_osmesa_even_if_mujoco_came_first(tmp_path):
     expected = next(
         (b for b, lib in (("egl", "EGL"), ("osmesa", "OSMesa")) if ctypes.util.find_library(lib)),
         None,
     )
     if expected is None:
         pytest.skip("neither libEGL nor libOSMesa is installed")
-    result = _run("import os, envs; print(os.environ['MUJOCO_GL'])", {}, tmp_path)
+    code = (
+        "import mujoco, os, envs, models\n"
+        "from envs.rendering import render_camera\n"
+        "model = models.load_model('riacs')\n"
+        "data = mujoco.MjData(model)\n"
+        "mujoco.mj_forward(model, data)\n"
+        "image = render_camera(model, data, 'cam_left')\n"
+        "print(os.environ['MUJOCO_GL'], image.std() > 0)\n"
+    )
+    result = _run(code, {}, tmp_path)
     assert result.returncode == 0, result.stderr
-    assert result.stdout.split()[-1] == expected
+    assert result.stdout.split()[-2:] == [expected, "True"]
+
+
+def test_fork_guard_sees_gl_started_outside_the_project(tmp_path):
+    """The parent renders with mujoco.Renderer directly, then forks: the child's first
+    CameraRenderer refuses (instead of hanging), because libEGL is mapped into the process."""
+    if ctypes.util.find_library("EGL") is None:
+        pytest.skip("libEGL is not installed")
+    code = (
+        "import os, mujoco, envs, models\n"
+        "from envs.rendering import CameraRenderer, RenderingUnavailableError\n"
+        "model = models.load_model('riacs')\n"
+        "data = mujoco.MjData(model)\n"
+        "renderer = mujoco.Renderer(model, 64, 64)\n"
+        "renderer.update_scene(data, camera='cam_left'); renderer.render()\n"
+        "pid = os.fork()\n"
+        "if pid == 0:\n"
+        "    try:\n"
+        "        CameraRenderer(model, 64, 64).render(data, 'cam_left')\n"
+        "    except RenderingUnavailableError as exc:\n"
+        "        print('child refused:', 'forked after its parent' in str(exc))\n"
+        "        os._exit(3)\n"
+        "    os._exit(0)\n"
+        "print('child exit', os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]))\n"
+    )
+    result = _run(code, {"MUJOCO_GL": "egl"}, tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split("\n")[:2] == ["child refused: True", "child exit 3"]
 
 
 def test_unusable_backend_error_names_both_backends(tmp_path):
