@@ -1,7 +1,7 @@
 """Kinematic accuracy of an arm at one pose: Němeček's linear error model, reverse-mode derivatives.
 
-    python scripts/accuracy.py --robot puma560 --pose 30 -100 40 20 30 40
-    python scripts/accuracy.py --robot riacs                # pose default: keyframe home
+    .venv/bin/python scripts/accuracy.py --robot puma560 --pose 30 -100 40 20 30 40
+    .venv/bin/python scripts/accuracy.py --robot riacs                # pose default: keyframe home
 
 Prints (1) the sensitivity table: tool-point displacement per unit deviation of every chain
 parameter (mm per mm for lengths, mm per degree for angles; also the tool rotation), sorted, and
@@ -17,6 +17,7 @@ import argparse
 import json
 from pathlib import Path
 
+import cli
 import numpy as np
 
 from models import accuracy as acc
@@ -27,7 +28,7 @@ MM, DEG = 1e3, 180 / np.pi
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    p = cli.parser(__doc__)
     p.add_argument("--robot", choices=("puma560", "riacs"), default="puma560")
     p.add_argument("--pose", type=float, nargs="+", help="joint angles in degrees (default: home)")
     p.add_argument(
@@ -37,7 +38,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         default=list(LEVELS),
         help="relative deviations (0.001 = 0.1 %%)",
     )
-    p.add_argument("--seed", type=int, default=0, help="signs of the all-at-once deviation")
+    p.add_argument(
+        "--seed", type=cli.nonnegative_int, default=0, help="signs of the all-at-once deviation"
+    )
     p.add_argument("--out", type=Path, default=None, help="default runs/accuracy/<robot>")
     return p.parse_args(argv)
 
@@ -130,4 +133,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

@@ -1,7 +1,7 @@
 """Benchmark the exact baselines against the SOM: time per single query and batch throughput.
 
-    python scripts/bench_ik.py                 # both robots, 20 000 batch targets
-    python scripts/bench.py ik --batch 5000    # the same through the benchmark dispatcher
+    .venv/bin/python scripts/bench_ik.py                 # both robots, 20 000 batch targets
+    .venv/bin/python scripts/bench.py ik --batch 5000    # the same through the benchmark dispatcher
 
 Targets are drawn from each robot's workspace (seeded) and projected by its stereo rig
 (``envs.StereoRig``); every controller gets the same pixels. AnalyticIK is the peer: ratios are
@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import time
 
+import cli
 import numpy as np
 
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
@@ -29,12 +30,16 @@ WORKSPACES = {"puma560": puma560.WORKSPACE, "riacs": riacs.WORKSPACE}
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    p = cli.parser(__doc__)
     p.add_argument("--robots", nargs="+", choices=tuple(WORKSPACES), default=list(WORKSPACES))
-    p.add_argument("--single", type=int, default=500, help="queries timed one by one")
-    p.add_argument("--batch", type=int, default=20_000, help="queries in one act_batch call")
-    p.add_argument("--repeats", type=int, default=3, help="timings repeated, best kept")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--single", type=cli.positive_int, default=500, help="queries timed one by one")
+    p.add_argument(
+        "--batch", type=cli.positive_int, default=20_000, help="queries in one act_batch call"
+    )
+    p.add_argument(
+        "--repeats", type=cli.positive_int, default=3, help="timings repeated, best kept"
+    )
+    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
     return p.parse_args(argv)
 
 
@@ -121,4 +126,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

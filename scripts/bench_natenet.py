@@ -1,7 +1,7 @@
 """Query time of NATEnet beside the exact inverse Jacobian, measured in the same run.
 
-    python scripts/bench_natenet.py                          # a 60-node net, 2000 queries
-    python scripts/bench_natenet.py --net runs/natenet/natenet.npz
+    .venv/bin/python scripts/bench_natenet.py                          # a 60-node net, 2000 queries
+    .venv/bin/python scripts/bench_natenet.py --net runs/natenet/natenet.npz
 
 NATEnet: ``net.predict(θ)`` (θ1..θ5 for a 5-input net). Exact: ``np.linalg.solve(jacobian(θ), I)``
 with ``models.puma560.kinematics.jacobian``. Both are timed one query at a time (what a controller
@@ -18,6 +18,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import cli
 import numpy as np
 
 from learners.natenet import NATEnet
@@ -28,12 +29,14 @@ INPUT_DIM = 5  # θ6 does not change the base-frame Jacobian
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap = cli.parser(__doc__)
     ap.add_argument("--net", type=Path, default=None, help="a saved NATEnet (.npz)")
-    ap.add_argument("--nodes", type=int, default=60, help="node count of the built net")
-    ap.add_argument("--queries", type=int, default=2000)
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--nodes", type=cli.positive_int, default=60, help="node count of the built net"
+    )
+    ap.add_argument("--queries", type=cli.positive_int, default=2000)
+    ap.add_argument("--repeats", type=cli.positive_int, default=3)
+    ap.add_argument("--seed", type=cli.nonnegative_int, default=0)
     ap.add_argument("--out", type=Path, default=Path("runs/bench_natenet"))
     return ap.parse_args(argv)
 
@@ -110,4 +113,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

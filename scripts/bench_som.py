@@ -13,18 +13,18 @@ Rows of the table:
     numpy allocations while constructing and training, from tracemalloc) and trials/s.
 Writes ``bench_som.json``.
 
-    python scripts/bench_som.py [--trials 10000] [--big 40 40 40] [--out runs/bench_som]
+    .venv/bin/python scripts/bench_som.py [--trials 10000] [--big 40 40 40] [--out runs/bench_som]
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
 import tracemalloc
 from pathlib import Path
 
+import cli
 import numpy as np
 
 from learners import kernels
@@ -121,14 +121,24 @@ def big_lattice(lattice: tuple[int, ...], trials: int, seed: int, kernel: str) -
 
 
 def main(argv: list[str] | None = None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--trials", type=int, default=10_000, help="trials = t_max of the run")
-    parser.add_argument("--block", type=int, default=100, help="trials per turn of map and peer")
-    parser.add_argument("--batch", type=int, default=10_000, help="targets per act_batch call")
-    parser.add_argument("--lattice", type=int, nargs="+", default=[12, 7, 4])
-    parser.add_argument("--big", type=int, nargs="*", default=[40, 40, 40], help="none: skip")
-    parser.add_argument("--big-trials", type=int, default=2000, help="t_max of the big lattice")
-    parser.add_argument("--seed", type=int, default=0)
+    parser = cli.parser(__doc__)
+    parser.add_argument(
+        "--trials", type=cli.positive_int, default=10_000, help="trials = t_max of the run"
+    )
+    parser.add_argument(
+        "--block", type=cli.positive_int, default=100, help="trials per turn of map and peer"
+    )
+    parser.add_argument(
+        "--batch", type=cli.positive_int, default=10_000, help="targets per act_batch call"
+    )
+    parser.add_argument("--lattice", type=cli.positive_int, nargs="+", default=[12, 7, 4])
+    parser.add_argument(
+        "--big", type=cli.positive_int, nargs="*", default=[40, 40, 40], help="none: skip"
+    )
+    parser.add_argument(
+        "--big-trials", type=cli.positive_int, default=2000, help="t_max of the big lattice"
+    )
+    parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
     parser.add_argument("--out", type=Path, default=Path("runs/bench_som"))
     args = parser.parse_args(argv)
     lattice, n = tuple(args.lattice), math.prod(args.lattice)
@@ -176,4 +186,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

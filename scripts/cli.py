@@ -7,8 +7,10 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
+
+from tqdm import tqdm
 
 T = TypeVar("T")
 #: Exit status of a command-line mistake (as argparse uses).
@@ -19,9 +21,17 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescription
     """Defaults in the help, the description printed as written."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """Every option gets a help entry, so that its default is shown."""
+
+    def add_argument(self, *args, **kwargs):  # type: ignore[override]
+        kwargs.setdefault("help", "(default: %(default)s)")  # argparse skips empty help
+        return super().add_argument(*args, **kwargs)
+
+
 def parser(doc: str | None) -> argparse.ArgumentParser:
     """An ArgumentParser whose help shows ``doc`` (the script's docstring) and the defaults."""
-    return argparse.ArgumentParser(description=doc, formatter_class=_Formatter)
+    return _Parser(description=doc, formatter_class=_Formatter)
 
 
 def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
@@ -41,6 +51,12 @@ def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
 positive_int = _number(int, lambda n: n > 0, "an integer > 0")
 nonnegative_int = _number(int, lambda n: n >= 0, "an integer >= 0")
 positive_float = _number(float, lambda x: math.isfinite(x) and x > 0, "a finite number > 0")
+nonnegative_float = _number(float, lambda x: math.isfinite(x) and x >= 0, "a finite number >= 0")
+
+
+def progress(items: Iterable[T], what: str, unit: str) -> Iterable[T]:
+    """``items`` with a progress bar on stderr (shown for loops that take a while)."""
+    return tqdm(items, desc=what, unit=unit, file=sys.stderr, mininterval=0.5, leave=False)
 
 
 def given_options(p: argparse.ArgumentParser, argv: Sequence[str] | None) -> set[str]:

@@ -10,6 +10,22 @@ from learners.base import Controller
 from learners.random_controller import RandomController
 
 SPECS = "random | analytic | jacobian | PATH.npz (a saved VisuomotorSOM)"
+#: The envs these controllers drive (PumaTrack-v0 takes joint increments, not reach commands).
+REACH_ENVS = ("RiacsReach-v0", "PumaReach-v0")
+
+
+class Ticking(Controller):
+    """``inner`` that advances ``ticks`` (an iterator, e.g. a progress bar) at every trial."""
+
+    def __init__(self, inner: Controller, ticks) -> None:
+        self.inner, self._ticks = inner, iter(ticks)
+
+    def act(self, u, v=None):
+        return self.inner.act(u, v)
+
+    def reset(self) -> None:
+        next(self._ticks, None)
+        self.inner.reset()
 
 
 def make_controller(spec: str, env, seed: int = 0) -> Controller:

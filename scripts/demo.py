@@ -1,16 +1,16 @@
 """The main job, end to end and headless: train the visuomotor SOM on both arms, evaluate it
 with rendered camera sensing and servo control, and write plots, a video and camera images.
 
-    python scripts/demo.py --out runs/demo          (what `make demo` runs; ~3 minutes)
+    .venv/bin/python scripts/demo.py --out runs/demo          (what `make demo` runs; ~3 minutes)
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from pathlib import Path
 
+import cli
 import cv2
 import evaluate
 import train
@@ -28,7 +28,7 @@ def scene_images(out: Path) -> list[Path]:
     import mujoco
 
     paths = []
-    for name in available_models():
+    for name in cli.progress(available_models(), "scene images", "scene"):
         model = load_model(name)
         data = mujoco.MjData(model)
         mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
@@ -44,10 +44,12 @@ def scene_images(out: Path) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__)
     p.add_argument("--out", type=Path, default=Path("runs/demo"))
-    p.add_argument("--trials", type=int, default=10_000)
-    p.add_argument("--targets", type=int, default=300, help="held-out targets per evaluation")
+    p.add_argument("--trials", type=cli.positive_int, default=10_000)
+    p.add_argument(
+        "--targets", type=cli.positive_int, default=300, help="held-out targets per evaluation"
+    )
     args = p.parse_args(argv)
     start = time.time()
     results = {}
@@ -55,8 +57,9 @@ def main(argv: list[str] | None = None) -> None:
     for env_id, short in (("PumaReach-v0", "puma"), ("RiacsReach-v0", "riacs")):
         run = args.out / short
         print(f"\n== {env_id}: training {args.trials} trials (exact projection, kinematic) ==")
+        # --force: a demo run starts over in its folder (make demo twice gives the same files)
         train.main(["--env", env_id, "--trials", str(args.trials), "--out", str(run),
-                    "--eval-trials", "100"])  # fmt: skip
+                    "--eval-trials", "100", "--force"])  # fmt: skip
         for sensing, control in (("project", "kinematic"), ("render", "servo")):
             print(f"\n-- {env_id}: evaluation with sensing={sensing}, control={control} --")
             summary = evaluate.main(["--run", str(run), "--targets", str(args.targets),
@@ -77,4 +80,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

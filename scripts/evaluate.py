@@ -1,8 +1,8 @@
 """Evaluate controllers on fresh held-out targets: a table of errors after each move, and plots.
 
-    python scripts/evaluate.py --run runs/riacs                      # the trained SOM of a run
-    python scripts/evaluate.py --run runs/riacs --compare analytic jacobian
-    python scripts/evaluate.py --env PumaReach-v0 --controller analytic
+    .venv/bin/python scripts/evaluate.py --run runs/riacs          # the trained SOM of a run
+    .venv/bin/python scripts/evaluate.py --run runs/riacs --compare analytic jacobian
+    .venv/bin/python scripts/evaluate.py --env PumaReach-v0 --controller analytic
 
 Plots (for the first controller, if it is a SOM): learning curve (from the run's
 metrics.jsonl), error histogram, lattice in the left camera's image, targets and reached
@@ -11,7 +11,6 @@ positions in 3-D, error map over the workspace. Numbers go to OUT/evaluation.jso
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
@@ -25,23 +24,23 @@ from envs.rendering import render_camera
 from envs.training import MAP_FILE, METRICS_FILE, Trainer
 from learners.som import VisuomotorSOM
 
-from controllers import SPECS, make_controller
+from controllers import REACH_ENVS, SPECS, Ticking, make_controller
 
 #: Held-out targets come from this seed unless told otherwise (never a training seed offset).
 DEFAULT_SEED = 20_000
 
 
 def main(argv: list[str] | None = None) -> dict:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__)
     p.add_argument("--run", type=Path, help="a training run folder (som.npz, metrics.jsonl)")
     p.add_argument("--controller", help=f"instead of --run: {SPECS}")
     p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
-    p.add_argument("--env", help="default: the run's env")
+    p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
     p.add_argument("--sensing", choices=("render", "project"), help="default: the run's")
     p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
-    p.add_argument("--targets", type=int, default=1000)
-    p.add_argument("--fine-moves", type=int, default=2)
-    p.add_argument("--seed", type=int, default=DEFAULT_SEED)
+    p.add_argument("--targets", type=cli.positive_int, default=1000)
+    p.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
+    p.add_argument("--seed", type=cli.nonnegative_int, default=DEFAULT_SEED)
     p.add_argument("--out", type=Path, help="default: RUN/eval or runs/eval")
     p.add_argument("--no-plots", action="store_true")
     p.add_argument(
@@ -75,7 +74,8 @@ def main(argv: list[str] | None = None) -> dict:
             controller.protocol = args.protocol or controller.protocol
             controller.refine = controller.refine and not args.no_refine
         env.reset(seed=args.seed)  # the same held-out targets for every controller
-        result = evaluate(env, controller, args.targets, args.fine_moves)
+        ticking = Ticking(controller, cli.progress(range(args.targets), spec, "target"))
+        result = evaluate(env, ticking, args.targets, args.fine_moves)
         name = spec
         if isinstance(controller, VisuomotorSOM):
             refine = "+refine" if controller.refine and controller.protocol == "mrs" else ""

@@ -5,8 +5,8 @@ whole reachable workspace (slope scan), the optimal storage resolution (§6.2, a
 fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate) and with the MRS loop (rule
 "mrs", Gaussian RITT3 neighbourhood, averaged coarse move, exploration: this project's additions).
 
-    python scripts/reproduce_brause.py                # everything, outputs in runs/brause
-    python scripts/reproduce_brause.py --no-som       # without the learned maps, a few seconds
+    .venv/bin/python scripts/reproduce_brause.py             # everything, outputs in runs/brause
+    .venv/bin/python scripts/reproduce_brause.py --no-som    # without the learned maps, seconds
 
 Outputs: ``brause.json`` (all numbers), ``fig5f_joints.png``, ``fig5g_joint_error.png``,
 ``fig5h_cartesian_error.png``, ``fig5i_fit.png``, ``fig6_2_storage_error.png``,
@@ -23,6 +23,7 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
+import cli
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -39,15 +40,19 @@ UNITS = {"rad": 1.0, "deg": 180 / np.pi, "m": 1.0, "mm": 1e3, "1e-2 mm": 1e5}
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    p = cli.parser(__doc__)
     p.add_argument("--out", type=Path, default=Path("runs/brause"), help="output folder")
-    p.add_argument("--points", type=int, default=401, help="samples along the path")
-    p.add_argument("--edge", type=float, default=B.BRAUSE_EDGE, help="workspace edge X (m)")
-    p.add_argument("--dx", type=float, default=B.DX, help="central-difference step of (5.4), m")
+    p.add_argument("--points", type=cli.positive_int, default=401, help="samples along the path")
+    p.add_argument(
+        "--edge", type=cli.positive_float, default=B.BRAUSE_EDGE, help="workspace edge X (m)"
+    )
+    p.add_argument(
+        "--dx", type=cli.positive_float, default=B.DX, help="central-difference step of (5.4), m"
+    )
     p.add_argument("--no-som", action="store_true", help="skip the learned maps")
     p.add_argument(
         "--scan-spacing",
-        type=float,
+        type=cli.positive_float,
         default=B.SCAN_SPACING,
         help="grid spacing (m) of the slope scan over the workspace",
     )
@@ -58,7 +63,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         default=list(SOM_LATTICES),
         help="SOM lattice sizes n (n×n×n neurons)",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
     return p.parse_args(argv)
 
 
@@ -526,4 +531,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

@@ -1,7 +1,7 @@
 """Build the RIACS data set of Jorgensen (1990): build3dpts, a seeded buildtset split, the plots.
 
-    python scripts/riacs_dataset.py                       # 3° steps, outputs in runs/riacs_dataset
-    python scripts/riacs_dataset.py --stepsize 0.1 --train 2000 --test 500 --no-replace
+    .venv/bin/python scripts/riacs_dataset.py       # 3° steps, outputs in runs/riacs_dataset
+    .venv/bin/python scripts/riacs_dataset.py --stepsize 0.1 --train 2000 --test 500 --no-replace
 
 Writes ``riacs_dataset.npz`` (arrays ``data``, ``train``, ``test``, columns in the config),
 ``data.csv``, ``train.csv``, ``test.csv`` (header x,y,z,x1,y1,x2,y2,theta1,theta2,theta3),
@@ -18,6 +18,7 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
+import cli
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -29,17 +30,19 @@ KIND, VERSION = "riacs-dataset", 1
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    p = cli.parser(__doc__)
     p.add_argument("--out", type=Path, default=Path("runs/riacs_dataset"))
-    p.add_argument("--stepsize", type=float, default=D.STEP, help="joint step, rad (default π/60)")
-    p.add_argument("--train", type=int, default=1000, help="training rows")
-    p.add_argument("--test", type=int, default=1000, help="test rows")
+    p.add_argument(
+        "--stepsize", type=cli.positive_float, default=D.STEP, help="joint step, rad (default π/60)"
+    )
+    p.add_argument("--train", type=cli.positive_int, default=1000, help="training rows")
+    p.add_argument("--test", type=cli.positive_int, default=1000, help="test rows")
     p.add_argument(
         "--no-replace",
         action="store_true",
         help="disjoint split instead of buildtset's sampling with replacement",
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
     return p.parse_args(argv)
 
 
@@ -108,4 +111,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

@@ -1,8 +1,8 @@
 """Train NATEnet on PumaTrack-v0 and compare its path tracking with the exact inverse Jacobian,
 a fixed-grid net of the same size (no allocation) and the untrained net.
 
-    python scripts/train_natenet.py                 # default run, ~1-2 min, writes runs/natenet
-    python scripts/train_natenet.py --train-paths 600 --out runs/natenet_long
+    .venv/bin/python scripts/train_natenet.py     # default run, ~1-2 min, writes runs/natenet
+    .venv/bin/python scripts/train_natenet.py --train-paths 600 --out runs/natenet_long
 
 Training: one random path (circle or line) per episode, tracked by the net being trained with
 Gaussian exploration noise on every joint command; every observed move (Δθ, Δx) is one learning
@@ -17,6 +17,7 @@ import json
 import time
 from pathlib import Path
 
+import cli
 import matplotlib
 import numpy as np
 
@@ -39,12 +40,16 @@ PLOT_FLOOR_MM, PLOT_FLOOR_DEG = 1e-3, 1e-4
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap = cli.parser(__doc__)
     ap.add_argument("--out", type=Path, default=Path("runs/natenet"))
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--train-paths", type=int, default=300)
-    ap.add_argument("--test-paths", type=int, default=10, help="per test set (circles, lines)")
-    ap.add_argument("--exploration", type=float, default=0.01, help="joint noise std, rad")
+    ap.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    ap.add_argument("--train-paths", type=cli.positive_int, default=300)
+    ap.add_argument(
+        "--test-paths", type=cli.positive_int, default=10, help="per test set (circles, lines)"
+    )
+    ap.add_argument(
+        "--exploration", type=cli.positive_float, default=0.01, help="joint noise std, rad"
+    )
     ap.add_argument(
         "--input-dim",
         type=int,
@@ -52,14 +57,14 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         choices=(5, 6),
         help="net input: θ1..θ5 (θ6 does not change J) or all six joints",
     )
-    ap.add_argument("--lam", type=float, default=nn.LAMBDA)
-    ap.add_argument("--eta", type=float, default=nn.ETA)
-    ap.add_argument("--T0", type=float, default=nn.T0)
-    ap.add_argument("--e-f", type=float, default=nn.E_F)
-    ap.add_argument("--tau", type=float, default=nn.TAU)
-    ap.add_argument("--T-a", type=float, default=nn.T_A)
-    ap.add_argument("--max-nodes", type=int, default=nn.MAX_NODES)
-    ap.add_argument("--gain", type=float, default=nn.GAIN)
+    ap.add_argument("--lam", type=cli.positive_float, default=nn.LAMBDA)
+    ap.add_argument("--eta", type=cli.positive_float, default=nn.ETA)
+    ap.add_argument("--T0", type=cli.positive_float, default=nn.T0)
+    ap.add_argument("--e-f", type=cli.positive_float, default=nn.E_F)
+    ap.add_argument("--tau", type=cli.positive_float, default=nn.TAU)
+    ap.add_argument("--T-a", type=cli.positive_float, default=nn.T_A)
+    ap.add_argument("--max-nodes", type=cli.positive_int, default=nn.MAX_NODES)
+    ap.add_argument("--gain", type=cli.positive_float, default=nn.GAIN)
     ap.add_argument("--sensing", default="project", choices=("project", "render"))
     ap.add_argument("--no-video", action="store_true")
     return ap.parse_args(argv)
@@ -102,9 +107,9 @@ def report(metrics: dict) -> None:
             )
     a = metrics["acceptance"]
     print(
-        f"acceptance (r = {TEST_RADIUS} m circles): {a['position_mm_mean']:.3f} mm "
-        f"(≤ {ACCEPT_MM}), {a['orientation_deg_mean']:.3f}° (≤ {ACCEPT_DEG}), {a['nodes']} "
-        f"nodes, {a['step_time_us']:.0f} µs per step: {'PASS' if a['passed'] else 'FAIL'}"
+        f"NATEnet on r = {TEST_RADIUS} m circles: {a['position_mm_mean']:.3f} mm, "
+        f"{a['orientation_deg_mean']:.3f}° mean error, {a['nodes']} nodes, "
+        f"{a['step_time_us']:.0f} µs per step"
     )
 
 
@@ -184,7 +189,12 @@ def main(argv: list[str] | None = None) -> dict:
     start = time.perf_counter()
     net = NATEnet(input_dim=args.input_dim, max_nodes=args.max_nodes, **params)
     history = train_on_paths(
-        train_env, net, seeds, args.exploration, np.random.default_rng(args.seed), args.gain
+        train_env,
+        net,
+        cli.progress(seeds, "NATEnet training", "path"),
+        args.exploration,
+        np.random.default_rng(args.seed),
+        args.gain,
     )
     train_time = time.perf_counter() - start
     print(f"NATEnet: {net.n_nodes} nodes after {net.steps} learning steps ({train_time:.1f} s)")
@@ -195,7 +205,12 @@ def main(argv: list[str] | None = None) -> dict:
     counts = grid_counts(lower, upper, net.n_nodes)
     grid = NATEnet.fixed_grid(lower, upper, counts, **params)
     grid_history = train_on_paths(
-        train_env, grid, seeds, args.exploration, np.random.default_rng(args.seed), args.gain
+        train_env,
+        grid,
+        cli.progress(seeds, "fixed-grid training", "path"),
+        args.exploration,
+        np.random.default_rng(args.seed),
+        args.gain,
     )
     print(f"fixed grid: {grid.n_nodes} nodes, {counts.tolist()} per joint")
 
@@ -209,8 +224,8 @@ def main(argv: list[str] | None = None) -> dict:
     line_seeds = LINE_SEEDS + args.seed * 10_000 + np.arange(args.test_paths)
     evals = {
         name: {
-            "circle": evaluate(circle_env, tr, circle_seeds),
-            "line": evaluate(line_env, tr, line_seeds),
+            "circle": evaluate(circle_env, tr, cli.progress(circle_seeds, name, "circle")),
+            "line": evaluate(line_env, tr, cli.progress(line_seeds, name, "line")),
         }
         for name, tr in trackers.items()
     }
@@ -241,4 +256,4 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

@@ -1,11 +1,10 @@
 """Rendered evaluation video: a controller's coarse and fine moves on a reach env, as mp4.
 
-python scripts/video.py --env PumaReach-v0 --controller random --out runs/video/random.mp4
+.venv/bin/python scripts/video.py --env PumaReach-v0 --controller random --out runs/video/random.mp4
 """
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import cli
@@ -15,22 +14,22 @@ import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.trials import Trial, run_trial
 from envs.video import VideoWriter, annotate
 
-from controllers import SPECS, make_controller
+from controllers import REACH_ENVS, SPECS, make_controller
 
 #: Video frames per move, so that a viewer can follow each move at a low frame rate.
 FRAMES_PER_MOVE = 3
 
 
 def main(argv: list[str] | None = None) -> Path:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="PumaReach-v0")
+    parser = cli.parser(__doc__)
+    parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENVS)
     parser.add_argument("--controller", default="random", help=SPECS)
-    parser.add_argument("--trials", type=int, default=4)
-    parser.add_argument("--fine-moves", type=int, default=2)
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--sensing", default="render")
-    parser.add_argument("--control", default="servo")
-    parser.add_argument("--fps", type=float, default=6.0)
+    parser.add_argument("--trials", type=cli.positive_int, default=4)
+    parser.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
+    parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
+    parser.add_argument("--sensing", default="render", choices=("render", "project"))
+    parser.add_argument("--control", default="servo", choices=("servo", "kinematic"))
+    parser.add_argument("--fps", type=cli.positive_float, default=6.0)
     parser.add_argument("--out", type=Path, default=Path("runs/video/eval.mp4"))
     args = parser.parse_args(argv)
 
@@ -41,7 +40,7 @@ def main(argv: list[str] | None = None) -> Path:
     )
     env.reset(seed=args.seed)
     with VideoWriter(args.out, args.fps) as video:
-        for i in range(args.trials):
+        for i in cli.progress(range(args.trials), "video", "trial"):
 
             def record(k: int, trial: Trial, i: int = i) -> None:
                 move = "target" if k < 0 else ("coarse move" if k == 0 else f"fine move {k}")
