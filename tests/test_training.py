@@ -73,7 +73,10 @@ def test_resume_after_a_crash_redoes_from_the_last_periodic_checkpoint(tmp_path)
         _train(config, tmp_path / "crashed", checkpoint_every=20, progress=crash)
     with open(tmp_path / "crashed" / METRICS_FILE, "a") as f:
         f.write('{"trial": 40, "lea')  # a write cut short by a full disk
+    stale = tmp_path / "crashed" / ".som.npz.x1y2.tmp"  # left by a save that was killed
+    stale.write_bytes(b"half a checkpoint")
     trainer = Trainer.resume(tmp_path / "crashed")
+    assert not stale.exists()
     assert trainer.trial == 20
     trainer.run(checkpoint_every=20)
     trainer.close()
