@@ -186,16 +186,14 @@ def main(argv: list[str] | None = None) -> dict:
     line_env = PumaTrackEnv(sensing=args.sensing, path_kind="line")
     seeds = args.seed * 10_000 + TRAIN_SEEDS + np.arange(args.train_paths)
 
+    def train(net: NATEnet, what: str) -> dict:
+        paths = cli.progress(seeds, what, "path")
+        rng = np.random.default_rng(args.seed)
+        return train_on_paths(train_env, net, paths, args.exploration, rng, args.gain)
+
     start = time.perf_counter()
     net = NATEnet(input_dim=args.input_dim, max_nodes=args.max_nodes, **params)
-    history = train_on_paths(
-        train_env,
-        net,
-        cli.progress(seeds, "NATEnet training", "path"),
-        args.exploration,
-        np.random.default_rng(args.seed),
-        args.gain,
-    )
+    history = train(net, "NATEnet training")
     train_time = time.perf_counter() - start
     print(f"NATEnet: {net.n_nodes} nodes after {net.steps} learning steps ({train_time:.1f} s)")
 
@@ -204,14 +202,7 @@ def main(argv: list[str] | None = None) -> dict:
     upper = history["joint_upper"][: args.input_dim]
     counts = grid_counts(lower, upper, net.n_nodes)
     grid = NATEnet.fixed_grid(lower, upper, counts, **params)
-    grid_history = train_on_paths(
-        train_env,
-        grid,
-        cli.progress(seeds, "fixed-grid training", "path"),
-        args.exploration,
-        np.random.default_rng(args.seed),
-        args.gain,
-    )
+    grid_history = train(grid, "fixed-grid training")
     print(f"fixed grid: {grid.n_nodes} nodes, {counts.tolist()} per joint")
 
     trackers = {
