@@ -23,7 +23,7 @@ test: $(VENV)/.installed
 
 # The long fault test: ten times the signals of the kill test in `make test`.
 soak: $(VENV)/.installed
-	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -s -n 2 tests/test_kill.py
+	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -rP -n 2 tests/test_kill.py
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .
