@@ -7,15 +7,16 @@ simulation state) and metrics.jsonl of an unbroken run, exactly.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "train.py"
 SOAK = os.environ.get("VISUOMOTOR_SOAK") == "1"
@@ -33,6 +34,8 @@ SETTINGS = [
     ("keep-arm-servo", ["--sensing", "project", "--control", "servo", "--keep-arm", "--trials",
                         "300", "--eval-every", "60", "--eval-trials", "5"], 10),
 ]  # fmt: skip
+#: Share of the signals sent during a process's start-up rather than its work.
+STARTUP_SHARE = 0.25
 COMMON = ["--lattice", "4,3,2", "--checkpoint-every", "7", "--seed", "5"]
 if SOAK:  # ten times the trials and the signals
 
@@ -65,55 +68,86 @@ def _timed(command: list[str]) -> float:
     return time.perf_counter() - start
 
 
+def _working(process: subprocess.Popen, out: Path) -> bool:
+    """Wait until ``process`` holds the run folder's lock (its start-up is over); False if it
+    ended first."""
+    lock = out / "run.lock"
+    while process.poll() is None:
+        with contextlib.suppress(OSError):
+            if lock.read_text().strip() == str(process.pid):
+                return True
+        time.sleep(0.005)
+    return False
+
+
 def _signalled_run(
-    out: Path, options: list[str], n_signals: int, longest: float, rng: np.random.Generator
+    out: Path,
+    options: list[str],
+    n_signals: int,
+    startup: float,
+    share: float,
+    rng: np.random.Generator,
 ) -> list[int]:
-    """Run to the end, sending at most ``n_signals`` signals, each at a moment drawn uniformly
-    from (0, ``longest``) s after a process starts; returns the exit statuses of the processes
-    that were stopped."""
+    """Run to the end, sending at most ``n_signals`` signals, and return the exit statuses of
+    the stopped processes. A signal falls, with probability STARTUP_SHARE, at a moment drawn
+    uniformly from (0, ``startup``) s after the process started (imports, building the env,
+    reading the checkpoint), else from (0, 2·``share``) s after it took the run folder's lock
+    (trials, evaluations, saves)."""
     statuses: list[int] = []
     while True:
         process = subprocess.Popen(
             _command(out, options), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=_env()
         )
         if len(statuses) < n_signals:
+            early, fraction = rng.random() < STARTUP_SHARE, rng.random()
+            ready = early or _working(process, out)
             try:
-                process.wait(timeout=float(rng.uniform(0.0, longest)))
+                process.wait(timeout=fraction * (startup if early else 2 * share))
             except subprocess.TimeoutExpired:
-                process.send_signal(SIGNALS[int(rng.integers(len(SIGNALS)))])
+                if ready:
+                    process.send_signal(SIGNALS[int(rng.integers(len(SIGNALS)))])
         _, err = process.communicate(timeout=300)
         if process.returncode == 0:
             return statuses
         # SIGINT while the interpreter itself starts: a KeyboardInterrupt, status 1.
-        early = process.returncode == 1 and b"KeyboardInterrupt" in err
-        assert process.returncode in STOPPED or early, err.decode()[-2000:]
+        early_exit = process.returncode == 1 and b"KeyboardInterrupt" in err
+        assert process.returncode in STOPPED or early_exit, err.decode()[-2000:]
         statuses.append(process.returncode)
 
 
-@pytest.mark.parametrize("name,options,n_signals", SETTINGS, ids=[s[0] for s in SETTINGS])
-def test_signals_at_random_moments_leave_the_result_of_an_unbroken_run(
-    tmp_path, name, options, n_signals
-):
-    reference = tmp_path / "reference"
+def _check_setting(tmp_path: Path, name: str, options: list[str], n_signals: int) -> str:
+    """Signal runs of one setting until ``n_signals`` were sent, comparing every run with an
+    unbroken one; returns a summary line."""
+    reference = tmp_path / name / "reference"
     startup = _timed([sys.executable, str(SCRIPT), "--help"])  # s, imports
     work = _timed(_command(reference, options)) - startup  # s, the whole run's work
-    # Moments spread over start-up and a share of the work, so that the signals fall into
-    # imports, trials, evaluations and saves alike. A run that ends before all signals were
-    # sent (timing varies with the machine's load) is followed by another one.
-    longest = startup + max(work, 0.1) / n_signals
+    # Each process gets about its share of the work before its signal, so the run ends after
+    # about n_signals signals; a run that ends before they were all sent (timing varies with
+    # the machine's load) is followed by another one.
+    share = max(work, 0.1) / n_signals
     expected = _contents(reference)
     metrics = (reference / "metrics.jsonl").read_bytes()
     rng = np.random.default_rng(sum(name.encode()))  # the moments and the signals
     statuses: list[int] = []
     runs = 0
     while len(statuses) < n_signals:
-        out = tmp_path / f"killed{runs}"
-        statuses += _signalled_run(out, options, n_signals - len(statuses), longest, rng)
+        out = tmp_path / name / f"killed{runs}"
+        left = n_signals - len(statuses)
+        statuses += _signalled_run(out, options, left, startup, share, rng)
         runs += 1
         found = _contents(out)
-        assert sorted(found) == sorted(expected)
+        assert sorted(found) == sorted(expected), name
         for key in expected:
-            np.testing.assert_array_equal(found[key], expected[key], err_msg=key)
-        assert (out / "metrics.jsonl").read_bytes() == metrics
+            np.testing.assert_array_equal(found[key], expected[key], err_msg=f"{name}: {key}")
+        assert (out / "metrics.jsonl").read_bytes() == metrics, name
     counts = {code: statuses.count(code) for code in sorted(set(statuses))}
-    print(f"\n{name}: {len(statuses)} signals, {runs} runs, exit statuses {counts}")
+    return f"{name}: {len(statuses)} signals, {runs} runs, exit statuses {counts}"
+
+
+def test_signals_at_random_moments_leave_the_result_of_an_unbroken_run(tmp_path):
+    """The settings run side by side: most of the time goes into waiting for the moments."""
+    start = time.perf_counter()
+    with ThreadPoolExecutor(len(SETTINGS)) as pool:
+        jobs = [pool.submit(_check_setting, tmp_path, *setting) for setting in SETTINGS]
+        lines = [job.result() for job in jobs]
+    print("\n" + "\n".join(lines) + f"\nin {time.perf_counter() - start:.0f} s")
