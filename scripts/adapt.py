@@ -6,19 +6,20 @@ Writes <out>/<env>/<change>.json, <out>/<env>/curves.png, <out>/table.json and t
 video of the first change other than "none" (trials before it, just after it and after
 recovery, side by side).
 
-python scripts/adapt.py --out runs/adapt                                  # idealised, both arms
-python scripts/adapt.py --sensing render --control servo --pretrained runs/adapt --warmup 300 \\
-    --after 1000 --every 500 --eval-trials 100 --changes camera --video-trials 2 \\
-    --out runs/adapt-realistic                # realistic, from the idealised maps, sized down
+.venv/bin/python scripts/adapt.py --out runs/adapt                   # idealised, both arms
+.venv/bin/python scripts/adapt.py --sensing render --control servo --pretrained runs/adapt \\
+    --warmup 300 --after 1000 --every 500 --eval-trials 100 --changes camera \\
+    --video-trials 2 --out runs/adapt-realistic  # realistic, from the idealised maps, sized down
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from dataclasses import replace
 from pathlib import Path
+
+import cli
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.adaptation import (
@@ -36,31 +37,39 @@ from envs.training import RunConfig
 from learners.persistence import write_atomic
 from learners.som import VisuomotorSOM
 
+from controllers import REACH_ENVS
+
 
 def _write_json(path: Path, data: object) -> None:
     write_atomic(path, lambda f: f.write(json.dumps(data, indent=1).encode()))
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--envs", nargs="+", default=["RiacsReach-v0", "PumaReach-v0"])
+    parser = cli.parser(__doc__)
+    parser.add_argument("--envs", nargs="+", default=list(REACH_ENVS), choices=REACH_ENVS)
     parser.add_argument("--changes", nargs="+", default=list(CHANGES), choices=list(CHANGES))
-    parser.add_argument("--sensing", default="project")
-    parser.add_argument("--control", default="kinematic")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--train-trials", type=int, default=10_000)
-    parser.add_argument("--pre-every", type=int, default=2000, help="evaluations before the change")
-    parser.add_argument("--after", type=int, default=3000, help="trials after the change")
-    parser.add_argument("--every", type=int, default=250, help="evaluations after the change")
-    parser.add_argument("--eval-trials", type=int, default=1000)
+    parser.add_argument("--sensing", default="project", choices=("render", "project"))
+    parser.add_argument("--control", default="kinematic", choices=("servo", "kinematic"))
+    parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    parser.add_argument("--train-trials", type=cli.positive_int, default=10_000)
+    parser.add_argument(
+        "--pre-every", type=cli.positive_int, default=2000, help="evaluations before the change"
+    )
+    parser.add_argument(
+        "--after", type=cli.positive_int, default=3000, help="trials after the change"
+    )
+    parser.add_argument(
+        "--every", type=cli.positive_int, default=250, help="evaluations after the change"
+    )
+    parser.add_argument("--eval-trials", type=cli.positive_int, default=1000)
     parser.add_argument(
         "--pretrained",
         type=Path,
         help="instead of pre-training, load <PRETRAINED>/<env>/pretrained.npz (e.g. the idealised "
         "run's maps) and train it --warmup trials in this setting before the change",
     )
-    parser.add_argument("--warmup", type=int, default=300)
-    parser.add_argument("--video-trials", type=int, default=3, help="0: no video")
+    parser.add_argument("--warmup", type=cli.positive_int, default=300)
+    parser.add_argument("--video-trials", type=cli.nonnegative_int, default=3, help="0: no video")
     parser.add_argument("--out", type=Path, default=Path("runs/adapt"))
     args = parser.parse_args(argv)
     start = time.monotonic()
@@ -119,4 +128,4 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)

@@ -58,7 +58,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )
     p.add_argument(
         "--lattices",
-        type=int,
+        type=cli.positive_int,
         nargs="+",
         default=list(SOM_LATTICES),
         help="SOM lattice sizes n (n×n×n neurons)",

@@ -48,7 +48,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--test-paths", type=cli.positive_int, default=10, help="per test set (circles, lines)"
     )
     ap.add_argument(
-        "--exploration", type=cli.positive_float, default=0.01, help="joint noise std, rad"
+        "--exploration", type=cli.nonnegative_float, default=0.01, help="joint noise std, rad"
     )
     ap.add_argument(
         "--input-dim",
