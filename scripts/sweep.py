@@ -1,9 +1,9 @@
 """Run a grid of training runs on Ray (local by default) and collect one results table.
 
-    python scripts/sweep.py --grid robot=riacs,puma --grid lattice=3,4,6,8 --grid seed=0,1 \\
-        --grid trials=1000 --out runs/sweep
-    python scripts/sweep.py --spec sweep.yaml --out runs/sweep          # the grid in a file
-    python scripts/sweep.py --spec sweep.yaml --address HEAD:6379       # on a Ray cluster
+    .venv/bin/python scripts/sweep.py --grid robot=riacs,puma --grid lattice=3,4,6,8 \\
+        --grid seed=0,1 --grid trials=1000 --out runs/sweep
+    .venv/bin/python scripts/sweep.py --spec sweep.yaml --out runs/sweep      # the grid in a file
+    .venv/bin/python scripts/sweep.py --spec sweep.yaml --address HEAD:6379   # on a Ray cluster
 
 Axes: robot (riacs, puma) and every training setting of scripts/train.py (lattice as 12x7x4
 or n for n×n×n, rule, refine, sensing, control, image_size as 480x640, trials, seed, ...).
@@ -14,9 +14,10 @@ OUT/error_vs_neurons.png. Run it again to finish or extend a sweep: finished cel
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
+
+import cli
 
 from envs.sweep import expand
 from envs.sweep_plots import error_vs_neurons
@@ -43,14 +44,14 @@ def parse_grid(items: list[str]) -> dict[str, list[str]]:
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = cli.parser(__doc__)
     p.add_argument("--spec", type=Path, help="JSON or YAML file: axis -> value or list")
     p.add_argument("--grid", action="append", default=[], help="AXIS=V1,V2,... (repeatable)")
     p.add_argument("--out", type=Path, default=Path("runs/sweep"))
     p.add_argument("--address", help="Ray cluster address (default: start Ray locally)")
-    p.add_argument("--num-cpus", type=int, default=DEFAULT_CPUS, help="local Ray CPUs")
-    p.add_argument("--retries", type=int, default=DEFAULT_RETRIES, help="per cell")
-    p.add_argument("--checkpoint-every", type=int, default=1000, help="trials")
+    p.add_argument("--num-cpus", type=cli.positive_int, default=DEFAULT_CPUS, help="local Ray CPUs")
+    p.add_argument("--retries", type=cli.nonnegative_int, default=DEFAULT_RETRIES, help="per cell")
+    p.add_argument("--checkpoint-every", type=cli.positive_int, default=1000, help="trials")
     args = p.parse_args(argv)
     grid = {**(load_spec(args.spec) if args.spec else {}), **parse_grid(args.grid)}
     try:
@@ -67,4 +68,4 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)
