@@ -7,7 +7,7 @@ are "12x7x4" or one size n for an n×n×n cube. Each cell lives in ``OUT/cells/<
 name made of its values and a hash of its whole configuration, so a cell is found again by
 any sweep that contains it:
 
-    trainer.json, som.npz, metrics.jsonl   the run folder (resumable, as ``train.py`` writes)
+    som.npz, metrics.jsonl                 the run folder (resumable, as ``train.py`` writes)
     attempts.jsonl                         one line per attempt: worker pid, starting trial
     progress.json                          last checkpointed trial (for progress displays)
     cell.json                              the cell's results row, written last (= finished)
