@@ -13,8 +13,10 @@ from envs import arguments
 from envs.composite import CompositeView
 from envs.markers import GREEN_EFFECTOR, RED_TARGET
 from envs.perturb import Perturbation, SceneEditor
+from envs.reward import reward_terms, seen_flags
 from envs.robots import ROBOTS, RobotSpec
 from envs.stereo import CameraPair, StereoRig
+from envs.triangulation import camera_floats
 from models import load_model
 
 SENSING_MODES = ("render", "project")
@@ -31,6 +33,7 @@ RESET_OPTIONS = {
     "keep_arm": lambda value: isinstance(value, (bool, np.bool_)),
     "perturb": lambda value: value is None or isinstance(value, (Perturbation, dict)),
 }
+KEYS = ("effector", "target")  # sensed markers, in the order (achieved_goal, desired_goal)
 
 
 class ReachEnv(gym.Env):
@@ -59,6 +62,12 @@ class ReachEnv(gym.Env):
     | ``desired_goal`` | (4,) | px | sensed target centre, same layout |
 
     Pixels are array-index coordinates (u right, v down) of 320×240 images (``image_size``).
+    Every entry is bounded: joints by their ranges (a servo move can overshoot a commanded limit
+    by ~1e-4 rad; the observation is clipped into the range, ``data.qpos`` is not), goals by the
+    image, [0, width - 1] × [0, height - 1] (a marker cut by the image border is not seen, so a
+    sensed centre lies inside; the sub-pixel perspective correction is clipped). With
+    ``normalize=True`` the action, the joints and the goals are each mapped affinely onto
+    [-1, 1] (joint range; pixel 0 -> -1, width - 1 or height - 1 -> +1).
     The target is sensed once per episode, at reset, with the robot out of view; the effector
     marker after every move, with the robot (which may occlude it) but without the target (which
     it would hide). A marker that is not seen by both cameras (occluded, cut by the image border)
@@ -66,11 +75,23 @@ class ReachEnv(gym.Env):
     marker has ever been seen its entry is the image centre.
 
     ## Reward
-    ``reward = -info["distance"]``: minus the ground-truth distance in metres between the target
-    centre and the sensed site (from MuJoCo, not from the cameras). ``info["reward_distance"]``
-    holds the same term. ``compute_reward(achieved_goal, desired_goal, info)`` gives minus the
-    distance between the triangulated goals, for goal-relabelling (HER) agents; it equals the
-    step reward with ``sensing="project"``.
+    ``reward = reward_distance + reward_unseen`` (m), computed from the observation alone, so that
+    ``reward == compute_reward(obs["achieved_goal"], obs["desired_goal"], info)`` bit for bit in
+    every setting, and goal-relabelling (HER) agents get the rewards the env would have given:
+
+    - ``reward_distance``: minus the distance between the two goals triangulated by the stereo
+      rig (``envs.reward``). With ``sensing="project"`` it is minus the ground-truth distance to
+      ~1e-12 m; with ``"render"`` it carries the sensing error (~2 mm median).
+    - ``reward_unseen``: minus the robot's reach (RIACS 1.0 m, PUMA 0.86 m) when the effector
+      marker was not seen by both cameras after the move (``info["visible_effector"]``; the
+      achieved goal is then the last sighting, not where the arm is), else 0. It travels in
+      ``info``, so a relabelled transition keeps it; ``compute_reward(..., info=None)`` takes
+      every marker as seen. The target's visibility does not enter (the reward is relative to the
+      desired goal as observed, which relabelling replaces).
+
+    ``compute_reward`` takes goals of any batch shape (..., 4) with ``info`` as one dict, dicts
+    shaped like the batch (list or object array, as HER passes them) or None. Success is judged
+    on the ground truth: ``info["is_success"]`` is ``info["distance"] < success_threshold``.
 
     ## Starting state
     ``reset`` draws a target uniformly from the robot's workspace with ``self.np_random`` and moves
@@ -89,7 +110,8 @@ class ReachEnv(gym.Env):
     coarse and three fine).
 
     ## Info
-    ``distance`` (m), ``reward_distance`` (= reward), ``pixel_error`` (px, mean over the two
+    ``distance`` (m, ground truth), ``reward_distance`` and ``reward_unseen`` (m, the reward's
+    terms), ``pixel_error`` (px, mean over the two
     cameras of the image distance between achieved and desired goal), ``is_success``
     (distance < ``success_threshold``), ``visible`` (both markers seen by both cameras),
     ``visible_target`` and ``visible_effector`` ((2,) bool, per camera), ``target_pos`` and
@@ -109,6 +131,10 @@ class ReachEnv(gym.Env):
       images sense more precisely (the cameras' field of view stays the same) and render slower.
     - ``render_mode`` (None): ``"rgb_array"`` gives the left view, the right view and the
       overview side by side, with the target crosshair and the detected marker drawn.
+    - ``normalize`` (False): action, joints and goals in [-1, 1]. Off by default: radians and
+      pixels are what the learners here and the baselines use, SB3's SAC/TD3 already rescale a
+      bounded action space, and ``VecNormalize`` (or this option) fixes the observation scale.
+      Turn it on for agents that do not rescale (PPO's Gaussian policy starts with σ = 1).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -122,6 +148,7 @@ class ReachEnv(gym.Env):
         success_threshold: float = SUCCESS_THRESHOLD,
         image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH),
         render_mode: str | None = None,
+        normalize: bool = False,
     ) -> None:
         if not isinstance(robot, str) or robot not in ROBOTS:
             raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
@@ -173,15 +200,7 @@ class ReachEnv(gym.Env):
         self.perturbation = Perturbation()
         self._view = CompositeView(self.model, height, width)
 
-        self.action_space = gym.spaces.Box(self.joint_lower, self.joint_upper, dtype=np.float64)
-        pixels = gym.spaces.Box(-np.inf, np.inf, shape=(4,), dtype=np.float64)
-        self.observation_space = gym.spaces.Dict(
-            {
-                "observation": gym.spaces.Box(self.joint_lower, self.joint_upper, dtype=np.float64),
-                "achieved_goal": pixels,
-                "desired_goal": pixels,
-            }
-        )
+        self._make_spaces(normalize)
         centre = np.tile([(width - 1) / 2, (height - 1) / 2], 2)
         self._last = {"target": centre.copy(), "effector": centre.copy()}
         self._visible_target = np.zeros(2, dtype=bool)
@@ -210,24 +229,57 @@ class ReachEnv(gym.Env):
         mujoco.mj_forward(self.model, self.data)
         self._sense_target()
         self._sense_effector()
-        return self._observation(), self._info(clipped=False, settle_time=0.0)
+        observation = self._observation()
+        info = self._info(clipped=False, settle_time=0.0)
+        self._reward(observation, info)
+        return observation, info
 
     def step(self, action: np.ndarray):
         command, clipped = self._check_action(action)
         settle_time = self._move(command)
         self._sense_effector()
+        observation = self._observation()
         info = self._info(clipped=clipped, settle_time=settle_time)
-        return self._observation(), -info["distance"], False, False, info
+        return observation, self._reward(observation, info), False, False, info
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
-    ) -> np.ndarray:
-        """Minus the distance (m) between triangulated goals; works on batches (..., 4)."""
-        a, d = np.asarray(achieved_goal, float), np.asarray(desired_goal, float)
+    ) -> float | np.ndarray:
+        """The step reward for goals (..., 4) (pixels, or normalised with ``normalize``).
+
+        ``info``: one dict, dicts shaped like the batch (list or object array, as HER passes
+        them), or None (every effector marker taken as seen). A float for one pair of goals, an
+        array of the batch shape otherwise; bit-identical to the step's reward for its goals.
+        """
+        distance, unseen = self._reward_terms(achieved_goal, desired_goal, info)
+        return distance + unseen
+
+    def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, Any]:
+        """(reward_distance, reward_unseen) through :func:`envs.reward.reward_terms`."""
+        a, d = np.asarray(achieved_goal, dtype=float), np.asarray(desired_goal, dtype=float)
+        if a.shape[-1:] != (4,) or d.shape[-1:] != (4,):
+            raise ValueError(
+                f"goals are (..., 4) pixel vectors (u_left, v_left, u_right, v_right), got "
+                f"shapes {a.shape} and {d.shape}"
+            )
         shape = np.broadcast_shapes(a.shape, d.shape)[:-1]
-        pa = self.stereo.triangulate(np.broadcast_to(a, (*shape, 4)).reshape(-1, 4))
-        pd = self.stereo.triangulate(np.broadcast_to(d, (*shape, 4)).reshape(-1, 4))
-        return -np.linalg.norm(pa - pd, axis=-1).reshape(shape)
+        if shape == ():  # one transition: Python floats, bit-identical to the array path
+            a_q, d_q = a.tolist(), d.tolist()
+        else:
+            a_q = np.moveaxis(np.broadcast_to(a, (*shape, 4)), -1, 0)
+            d_q = np.moveaxis(np.broadcast_to(d, (*shape, 4)), -1, 0)
+        if self.normalize:
+            a_q, d_q = self._goal_pixels(a_q), self._goal_pixels(d_q)
+        cameras = [camera_floats(c) for c in self.stereo.cameras]
+        return reward_terms(cameras, a_q, d_q, seen_flags(info, shape), self.reach)
+
+    def _reward(self, observation: dict[str, np.ndarray], info: dict[str, Any]) -> float:
+        """The reward of a transition; puts its terms into ``info``."""
+        distance, unseen = self._reward_terms(
+            observation["achieved_goal"], observation["desired_goal"], info
+        )
+        info["reward_distance"], info["reward_unseen"] = distance, unseen
+        return distance + unseen
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
@@ -301,6 +353,11 @@ class ReachEnv(gym.Env):
         if not np.isfinite(a).all():
             bad = int(np.flatnonzero(~np.isfinite(a))[0])
             raise ValueError(f"action for joint{bad + 1} is {a[bad]}; commands must be finite")
+        if self.normalize:  # [-1, 1] per joint -> its range
+            inside = np.minimum(np.maximum(a, -1.0), 1.0)
+            command = self._joint_mid + self._joint_half * inside
+            command = np.minimum(np.maximum(command, self.joint_lower), self.joint_upper)
+            return command, bool((inside != a).any())
         command = np.minimum(np.maximum(a, self.joint_lower), self.joint_upper)
         return command, bool((command != a).any())
 
@@ -355,11 +412,37 @@ class ReachEnv(gym.Env):
         return np.where(np.repeat(visible, 2), pixels[0], np.nan), visible
 
     def _observation(self) -> dict[str, np.ndarray]:
-        return {
-            "observation": self.data.qpos[self._qpos_ids].copy(),
-            "achieved_goal": self._last["effector"].copy(),
-            "desired_goal": self._last["target"].copy(),
-        }
+        # Servo moves overshoot a commanded limit by up to ~1e-4 rad: clipped into the space.
+        joints = self.data.qpos[self._qpos_ids]
+        joints = np.minimum(np.maximum(joints, self.joint_lower), self.joint_upper)
+        goals = [np.minimum(np.maximum(self._last[k], 0.0), self._pixel_max) for k in KEYS]
+        if self.normalize:
+            joints = np.clip((joints - self._joint_mid) / self._joint_half, -1.0, 1.0)
+            goals = [np.clip(g / self._pixel_half - 1.0, -1.0, 1.0) for g in goals]
+        return {"observation": joints, "achieved_goal": goals[0], "desired_goal": goals[1]}
+
+    def _make_spaces(self, normalize: bool) -> None:
+        """Bounded spaces: joints by their ranges, goals by the image (or [-1, 1] each)."""
+        self.normalize = bool(normalize)
+        self._joint_mid = (self.joint_upper + self.joint_lower) / 2  # rad
+        self._joint_half = (self.joint_upper - self.joint_lower) / 2  # rad
+        self._pixel_max = np.tile([self.image_width - 1.0, self.image_height - 1.0], 2)  # px
+        self._pixel_half = self._pixel_max / 2  # px
+        box = gym.spaces.Box
+        if self.normalize:
+            joints = box(-1.0, 1.0, (self.joints,), dtype=np.float64)
+            pixels = box(-1.0, 1.0, (4,), dtype=np.float64)
+        else:
+            joints = box(self.joint_lower, self.joint_upper, dtype=np.float64)
+            pixels = box(np.zeros(4), self._pixel_max, dtype=np.float64)
+        self.action_space = joints
+        self.observation_space = gym.spaces.Dict(
+            {"observation": joints, "achieved_goal": pixels, "desired_goal": pixels}
+        )
+
+    def _goal_pixels(self, q: list) -> list:
+        """Normalised goal coordinates (4 floats or arrays) -> pixels, elementwise."""
+        return [(x + 1.0) * h for x, h in zip(q, self._pixel_half.tolist(), strict=True)]
 
     def _info(self, clipped: bool, settle_time: float) -> dict[str, Any]:
         target = self.data.mocap_pos[0].copy()
@@ -368,7 +451,6 @@ class ReachEnv(gym.Env):
         du, dv, du2, dv2 = (self._last["effector"] - self._last["target"]).tolist()
         return {
             "distance": distance,
-            "reward_distance": -distance,
             "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
             "is_success": distance < self.success_threshold,
             "visible": bool(self._visible_target.all() and self._visible_effector.all()),

@@ -14,6 +14,7 @@ import numpy as np
 
 from envs.markers import MIN_AREA_RATIO, MarkerColour, find_sphere
 from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET, CameraRenderer
+from envs.triangulation import camera_floats, triangulate_elementwise
 
 
 @dataclass(frozen=True)
@@ -126,24 +127,12 @@ class CameraPair:
         """(N, 4) pixels (or normalised coordinates) -> (N, 3) world points, linear least squares.
 
         Each camera gives two planes through its centre, (r_x + x r_z)·(p - c) = 0 and
-        (r_y + y r_z)·(p - c) = 0; the four are solved for p in the least-squares sense.
+        (r_y + y r_z)·(p - c) = 0; the four are solved for p in the least-squares sense
+        (:func:`envs.triangulation.triangulate_elementwise`).
         """
-        q = np.atleast_2d(np.asarray(pixels, dtype=float))
-        rows, rhs = [], []
-        for k, cam in enumerate(self.cameras):
-            xy = q[:, 2 * k : 2 * k + 2]
-            if not normalized:
-                xy = cam.to_normalized(xy)
-            r = cam.rotation
-            for axis in (0, 1):
-                plane = r[:, axis][None, :] + xy[:, axis : axis + 1] * r[:, 2][None, :]  # (N, 3)
-                rows.append(plane)
-                rhs.append(plane @ cam.position)
-        M = np.stack(rows, axis=1)  # (N, 4, 3)
-        b = np.stack(rhs, axis=1)  # (N, 4)
-        MtM = np.einsum("nki,nkj->nij", M, M)
-        Mtb = np.einsum("nki,nk->ni", M, b)
-        return np.linalg.solve(MtM, Mtb[..., None])[..., 0]
+        q = np.atleast_2d(np.asarray(pixels, dtype=float))  # (N, 4)
+        cameras = [camera_floats(c) for c in self.cameras]
+        return np.stack(triangulate_elementwise(cameras, q.T, normalized), axis=-1)
 
 
 class StereoRig(CameraPair):

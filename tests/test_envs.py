@@ -99,12 +99,22 @@ def _assert_same(a, b, where: str) -> None:
 # -- Gymnasium API ------------------------------------------------------------------------------
 
 
-@pytest.mark.filterwarnings("ignore::UserWarning")  # Gymnasium's advice on unbounded Box spaces
+# Bounded spaces: Gymnasium warns only that the action is in radians (see ``normalize``).
+@pytest.mark.filterwarnings("ignore:.*symmetric and normalized")
+@pytest.mark.filterwarnings("error")
 @pytest.mark.parametrize("control", CONTROL)
 @pytest.mark.parametrize("sensing", SENSING)
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_check_env(robot, sensing, control):
     env = gym.make(ENV_IDS[robot], sensing=sensing, control=control)
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_check_env_normalized_has_no_warning(robot):
+    env = gym.make(ENV_IDS[robot], sensing="project", control="kinematic", normalize=True)
     check_env(env.unwrapped, skip_render_check=True)
     env.close()
 
@@ -155,7 +165,7 @@ def test_targets_are_drawn_from_the_workspace(robot):
 
 
 @pytest.mark.parametrize(("robot", "joints"), [("riacs", 3), ("puma560", 3), ("puma560", 6)])
-def test_reward_is_minus_ground_truth_distance(robot, joints):
+def test_reward_terms_and_ground_truth_distance(robot, joints):
     env = _env(robot, joints=joints)
     _, info = env.reset(seed=4)
     np.testing.assert_array_equal(info["target_pos"], env.data.mocap_pos[0])
@@ -165,7 +175,10 @@ def test_reward_is_minus_ground_truth_distance(robot, joints):
         np.testing.assert_allclose(info["effector_pos"], expected, rtol=0, atol=FK_TOL)
         distance = np.sqrt(np.sum((info["target_pos"] - info["effector_pos"]) ** 2))
         assert info["distance"] == pytest.approx(distance, abs=1e-15)
-        assert reward == -info["distance"] == info["reward_distance"]
+        if info["visible"]:  # exact projection: the goals triangulate to the true points
+            assert info["reward_distance"] == pytest.approx(-info["distance"], abs=GOAL_TOL)
+        assert reward == info["reward_distance"] + info["reward_unseen"]
+        assert info["reward_unseen"] == (0.0 if info["visible_effector"].all() else -env.reach)
         assert info["is_success"] == (info["distance"] < env.success_threshold)
         assert not terminated and not truncated
 
