@@ -27,8 +27,9 @@ def _seen(info: Mapping[str, Any]) -> bool:
         return bool(np.all(info[SEEN_KEY]))
     except KeyError:
         raise KeyError(
-            f"info has no {SEEN_KEY!r}: pass the info dict(s) the env returned with these goals, "
-            "or None to treat every effector marker as seen"
+            f"info has no {SEEN_KEY!r}: pass the info dict(s) the env returned with these goals "
+            "(Stable-Baselines3: HerReplayBuffer with replay_buffer_kwargs={'copy_info_dict': "
+            "True}), or None to treat every effector marker as seen"
         ) from None
 
 

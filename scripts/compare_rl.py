@@ -1,0 +1,85 @@
+"""The visuomotor map against SB3's SAC + HER, SAC and PPO: learning curves on held-out targets.
+
+    python scripts/compare_rl.py --env RiacsReach-v0 PumaReach-v0 --sensing project \\
+        --control kinematic --budget 20000 --seeds 0 1 2 --out runs/compare_rl/project
+    python scripts/compare_rl.py --env RiacsReach-v0 --sensing render --control servo \\
+        --budget 5000 --seeds 0 --out runs/compare_rl/render
+
+Needs the ``rl`` extra (``pip install -e ".[rl]"``). Writes OUT/curves.jsonl (one line per
+method and seed, appended as each finishes), OUT/table.md and OUT/<env>.png.
+"""
+
+from __future__ import annotations
+
+# torch first, before anything renders: Mesa's llvmpipe (EGL/OSMesa) loads its LLVM when the
+# first frame is drawn, and triton (which torch imports) bundles another LLVM; building a model
+# after a render then segfaults in LLVM's global state. Importing torch (and torch._dynamo,
+# which loads triton) first makes triton's LLVM the one that initialises.
+try:
+    import torch
+    import torch._dynamo
+except ImportError as exc:  # pragma: no cover - depends on the installation
+    raise SystemExit(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'") from exc
+
+import argparse
+import json
+from pathlib import Path
+
+import envs  # noqa: F401  (GL back-end, registration)
+from envs import rl_report
+from envs.rl_compare import METHODS, Curve, checkpoints, run_method
+
+TORCH_THREADS = 1  # the machine is shared: one core per run
+
+
+def main(argv: list[str] | None = None) -> list[Curve]:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--env", nargs="+", default=["RiacsReach-v0", "PumaReach-v0"])
+    p.add_argument("--sensing", choices=("project", "render"), default="project")
+    p.add_argument("--control", choices=("kinematic", "servo"), default="kinematic")
+    p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
+    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    p.add_argument("--budget", type=int, default=20_000, help="env steps per method and seed")
+    p.add_argument("--checkpoints", type=int, default=6, help="evaluations, log-spaced")
+    p.add_argument("--targets", type=int, default=1000, help="held-out targets per evaluation")
+    p.add_argument("--out", type=Path, default=Path("runs/compare_rl"))
+    args = p.parse_args(argv)
+    if args.budget < 1 or args.checkpoints < 1 or args.targets < 1:
+        p.error("--budget, --checkpoints and --targets must be at least 1")
+    torch.set_num_threads(TORCH_THREADS)
+    args.out.mkdir(parents=True, exist_ok=True)
+    points = checkpoints(args.budget, args.checkpoints)
+    setting = {"sensing": args.sensing, "control": args.control}
+    curves, sections = [], []
+    for env_id in args.env:
+        env_curves = []
+        for method in args.methods:
+            for seed in args.seeds:
+                curve = run_method(
+                    method,
+                    env_id=env_id,
+                    env_kwargs=setting,
+                    seed=seed,
+                    budget=args.budget,
+                    points=points,
+                    targets=args.targets,
+                )
+                env_curves.append(curve)
+                with open(args.out / "curves.jsonl", "a") as f:
+                    f.write(json.dumps({"env": env_id, **setting, **curve.to_json()}) + "\n")
+                print(
+                    f"{env_id} {method} seed {seed}: {curve.mean_m[-1] * 1e3:.2f} mm mean final "
+                    f"distance after {curve.steps[-1]} env steps",
+                    flush=True,
+                )
+        title = f"{env_id} ({args.sensing}, {args.control}), {args.targets} held-out targets"
+        rl_report.plot(env_curves, title, args.out / f"{env_id}.png")
+        sections.append(f"### {title}\n\n{rl_report.table(env_curves)}\n")
+        curves += env_curves
+    (args.out / "table.md").write_text("\n".join(sections))
+    print("\n".join(sections))
+    return curves
+
+
+if __name__ == "__main__":
+    main()
