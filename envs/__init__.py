@@ -12,6 +12,7 @@ import gymnasium as gym  # noqa: E402
 
 from envs.reach import MAX_EPISODE_STEPS, ReachEnv  # noqa: E402
 from envs.stereo import StereoRig  # noqa: E402
+from models.paths import N_STEPS  # noqa: E402
 
 gym.register(
     id="RiacsReach-v0",
@@ -25,6 +26,10 @@ gym.register(
     kwargs={"robot": "puma560"},
     max_episode_steps=MAX_EPISODE_STEPS,
 )
-gym.register(id="PumaTrack-v0", entry_point="envs.track:PumaTrackEnv")
+gym.register(
+    id="PumaTrack-v0",
+    entry_point="envs.track:PumaTrackEnv",
+    max_episode_steps=N_STEPS,  # one path; gym.make(..., n_steps=n, max_episode_steps=n) for others
+)
 
 __all__ = ["ReachEnv", "StereoRig"]

@@ -3,6 +3,8 @@ env's documented contract, and tracking with exact, trained and untrained contro
 
 from __future__ import annotations
 
+import inspect
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -203,3 +205,17 @@ def test_documented_defaults():
     assert track.SUCCESS_POSITION == 0.002 and np.degrees(track.SUCCESS_ORIENTATION) == 1.0
     for text in ("±0.1 rad", "| 100 |", "| 0.04 |", '``"project"``', '``"any"``', "2 mm", "1°"):
         assert text in PumaTrackEnv.__doc__
+
+
+def test_registration_truncates_with_the_path():
+    """The registered time limit is the default path length: TimeLimit and the env agree."""
+    spec = gym.spec("PumaTrack-v0")
+    assert spec.max_episode_steps == inspect.signature(PumaTrackEnv).parameters["n_steps"].default
+    e = gym.make("PumaTrack-v0", path_kind="line")
+    e.reset(seed=3)
+    steps, truncated = 0, False
+    while not truncated:
+        *_, truncated, _ = e.step(np.zeros(6))
+        steps += 1
+    assert steps == spec.max_episode_steps
+    e.close()
