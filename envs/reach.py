@@ -13,7 +13,7 @@ from envs import arguments
 from envs.composite import CompositeView
 from envs.markers import GREEN_EFFECTOR, RED_TARGET
 from envs.perturb import Perturbation, SceneEditor
-from envs.reward import reward_terms, seen_flags
+from envs.reward import GoalPoints, reward_terms, seen_flags
 from envs.robots import ROBOTS, RobotSpec
 from envs.stereo import CameraPair, StereoRig
 from envs.triangulation import camera_floats
@@ -33,7 +33,6 @@ RESET_OPTIONS = {
     "keep_arm": lambda value: isinstance(value, (bool, np.bool_)),
     "perturb": lambda value: value is None or isinstance(value, (Perturbation, dict)),
 }
-KEYS = ("effector", "target")  # sensed markers, in the order (achieved_goal, desired_goal)
 
 
 class ReachEnv(gym.Env):
@@ -201,6 +200,8 @@ class ReachEnv(gym.Env):
         self._view = CompositeView(self.model, height, width)
 
         self._make_spaces(normalize)
+        self._cameras_read: tuple | None = None  # the rig's cameras when last converted ...
+        self._goal_points: GoalPoints | None = None  # ... to floats for the reward
         centre = np.tile([(width - 1) / 2, (height - 1) / 2], 2)
         self._last = {"target": centre.copy(), "effector": centre.copy()}
         self._visible_target = np.zeros(2, dtype=bool)
@@ -226,7 +227,7 @@ class ReachEnv(gym.Env):
         else:
             mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
         self.data.mocap_pos[0] = target
-        mujoco.mj_forward(self.model, self.data)
+        self._forward()
         self._sense_target()
         self._sense_effector()
         observation = self._observation()
@@ -257,21 +258,24 @@ class ReachEnv(gym.Env):
     def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, Any]:
         """(reward_distance, reward_unseen) through :func:`envs.reward.reward_terms`."""
         a, d = np.asarray(achieved_goal, dtype=float), np.asarray(desired_goal, dtype=float)
-        if a.shape[-1:] != (4,) or d.shape[-1:] != (4,):
-            raise ValueError(
-                f"goals are (..., 4) pixel vectors (u_left, v_left, u_right, v_right), got "
-                f"shapes {a.shape} and {d.shape}"
-            )
-        shape = np.broadcast_shapes(a.shape, d.shape)[:-1]
-        if shape == ():  # one transition: Python floats, bit-identical to the array path
+        if a.shape == d.shape == (4,):  # one transition: Python floats, same bits as arrays
+            shape: tuple[int, ...] = ()
             a_q, d_q = a.tolist(), d.tolist()
         else:
+            if a.shape[-1:] != (4,) or d.shape[-1:] != (4,):
+                raise ValueError(
+                    f"goals are (..., 4) pixel vectors (u_left, v_left, u_right, v_right), got "
+                    f"shapes {a.shape} and {d.shape}"
+                )
+            shape = np.broadcast_shapes(a.shape, d.shape)[:-1]
             a_q = np.moveaxis(np.broadcast_to(a, (*shape, 4)), -1, 0)
             d_q = np.moveaxis(np.broadcast_to(d, (*shape, 4)), -1, 0)
         if self.normalize:
             a_q, d_q = self._goal_pixels(a_q), self._goal_pixels(d_q)
-        cameras = [camera_floats(c) for c in self.stereo.cameras]
-        return reward_terms(cameras, a_q, d_q, seen_flags(info, shape), self.reach)
+        if self._cameras_read is not self.stereo.cameras:  # (re)read if the rig changed
+            self._cameras_read = self.stereo.cameras
+            self._goal_points = GoalPoints(tuple(camera_floats(c) for c in self.stereo.cameras))
+        return reward_terms(self._goal_points, a_q, d_q, seen_flags(info, shape), self.reach)
 
     def _reward(self, observation: dict[str, np.ndarray], info: dict[str, Any]) -> float:
         """The reward of a transition; puts its terms into ``info``."""
@@ -350,7 +354,7 @@ class ReachEnv(gym.Env):
                 f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "
                 f"got shape {a.shape}"
             )
-        if not np.isfinite(a).all():
+        if not all(map(math.isfinite, a.tolist())):
             bad = int(np.flatnonzero(~np.isfinite(a))[0])
             raise ValueError(f"action for joint{bad + 1} is {a[bad]}; commands must be finite")
         if self.normalize:  # [-1, 1] per joint -> its range
@@ -359,13 +363,22 @@ class ReachEnv(gym.Env):
             command = np.minimum(np.maximum(command, self.joint_lower), self.joint_upper)
             return command, bool((inside != a).any())
         command = np.minimum(np.maximum(a, self.joint_lower), self.joint_upper)
-        return command, bool((command != a).any())
+        return command, command.tolist() != a.tolist()
+
+    def _forward(self) -> None:
+        """Positions from qpos: kinematic control needs only the kinematics and the cameras
+        (what sensing and rendering read); servo control the whole forward pass."""
+        if self.control == "kinematic":
+            mujoco.mj_kinematics(self.model, self.data)
+            mujoco.mj_camlight(self.model, self.data)
+        else:
+            mujoco.mj_forward(self.model, self.data)
 
     def _move(self, command: np.ndarray) -> float:
         if self.control == "kinematic":
             self.data.qpos[self._qpos_ids] = command
             self.data.qvel[:] = 0.0
-            mujoco.mj_forward(self.model, self.data)
+            self._forward()
             return 0.0
         self.data.ctrl[self._actuator_ids] = command
         start = self.data.time
@@ -402,31 +415,33 @@ class ReachEnv(gym.Env):
     ) -> tuple[np.ndarray, np.ndarray]:
         if self.sensing == "render":
             return self.stereo.sense(self.data, colour, radius)
-        pixels, depth = self.stereo.project_with_depth(point)
-        (u1, v1, u2, v2), (d1, d2) = pixels[0].tolist(), depth[0].tolist()
+        (u1, v1, u2, v2), (d1, d2) = self.stereo.project_point(point)
         u_max, v_max = self.image_width - 1, self.image_height - 1
-        visible = np.array(
-            [d1 > 0 and 0 <= u1 <= u_max and 0 <= v1 <= v_max,
-             d2 > 0 and 0 <= u2 <= u_max and 0 <= v2 <= v_max]
-        )  # fmt: skip
-        return np.where(np.repeat(visible, 2), pixels[0], np.nan), visible
+        left = d1 > 0 and 0 <= u1 <= u_max and 0 <= v1 <= v_max
+        right = d2 > 0 and 0 <= u2 <= u_max and 0 <= v2 <= v_max
+        nan = math.nan
+        pixels = [u1, v1, u2, v2] if left and right else [
+            u1 if left else nan, v1 if left else nan, u2 if right else nan, v2 if right else nan
+        ]  # fmt: skip
+        return np.array(pixels), np.array([left, right])
 
     def _observation(self) -> dict[str, np.ndarray]:
         # Servo moves overshoot a commanded limit by up to ~1e-4 rad: clipped into the space.
-        joints = self.data.qpos[self._qpos_ids]
-        joints = np.minimum(np.maximum(joints, self.joint_lower), self.joint_upper)
-        goals = [np.minimum(np.maximum(self._last[k], 0.0), self._pixel_max) for k in KEYS]
+        lo, hi = np.maximum, np.minimum
+        joints = hi(lo(self.data.qpos[self._qpos_ids], self.joint_lower), self.joint_upper)
+        goals = np.concatenate((self._last["effector"], self._last["target"]))  # (8,) px
+        goals = hi(lo(goals, 0.0), self._pixel_max)
         if self.normalize:
-            joints = np.clip((joints - self._joint_mid) / self._joint_half, -1.0, 1.0)
-            goals = [np.clip(g / self._pixel_half - 1.0, -1.0, 1.0) for g in goals]
-        return {"observation": joints, "achieved_goal": goals[0], "desired_goal": goals[1]}
+            joints = hi(lo((joints - self._joint_mid) / self._joint_half, -1.0), 1.0)
+            goals = hi(lo(goals / self._pixel_half - 1.0, -1.0), 1.0)
+        return {"observation": joints, "achieved_goal": goals[:4], "desired_goal": goals[4:]}
 
     def _make_spaces(self, normalize: bool) -> None:
         """Bounded spaces: joints by their ranges, goals by the image (or [-1, 1] each)."""
         self.normalize = bool(normalize)
         self._joint_mid = (self.joint_upper + self.joint_lower) / 2  # rad
         self._joint_half = (self.joint_upper - self.joint_lower) / 2  # rad
-        self._pixel_max = np.tile([self.image_width - 1.0, self.image_height - 1.0], 2)  # px
+        self._pixel_max = np.tile([self.image_width - 1.0, self.image_height - 1.0], 4)  # px, (8,)
         self._pixel_half = self._pixel_max / 2  # px
         box = gym.spaces.Box
         if self.normalize:
@@ -434,7 +449,7 @@ class ReachEnv(gym.Env):
             pixels = box(-1.0, 1.0, (4,), dtype=np.float64)
         else:
             joints = box(self.joint_lower, self.joint_upper, dtype=np.float64)
-            pixels = box(np.zeros(4), self._pixel_max, dtype=np.float64)
+            pixels = box(np.zeros(4), self._pixel_max[:4], dtype=np.float64)
         self.action_space = joints
         self.observation_space = gym.spaces.Dict(
             {"observation": joints, "achieved_goal": pixels, "desired_goal": pixels}
@@ -442,18 +457,18 @@ class ReachEnv(gym.Env):
 
     def _goal_pixels(self, q: list) -> list:
         """Normalised goal coordinates (4 floats or arrays) -> pixels, elementwise."""
-        return [(x + 1.0) * h for x, h in zip(q, self._pixel_half.tolist(), strict=True)]
+        return [(x + 1.0) * h for x, h in zip(q, self._pixel_half[:4].tolist(), strict=True)]
 
     def _info(self, clipped: bool, settle_time: float) -> dict[str, Any]:
         target = self.data.mocap_pos[0].copy()
         effector = self.data.site_xpos[self._site].copy()
-        distance = math.dist(target, effector)
+        distance = math.dist(target.tolist(), effector.tolist())
         du, dv, du2, dv2 = (self._last["effector"] - self._last["target"]).tolist()
         return {
             "distance": distance,
             "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
             "is_success": distance < self.success_threshold,
-            "visible": bool(self._visible_target.all() and self._visible_effector.all()),
+            "visible": all(self._visible_target.tolist() + self._visible_effector.tolist()),
             "visible_target": self._visible_target.copy(),
             "visible_effector": self._visible_effector.copy(),
             "target_pos": target,

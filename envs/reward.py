@@ -20,11 +20,31 @@ from envs.triangulation import CameraFloats, distance_elementwise, triangulate_e
 
 #: ``info`` key saying whether both cameras saw the effector marker after the move.
 SEEN_KEY = "visible_effector"
+#: Single-transition triangulations remembered (the desired goal repeats within an episode).
+CACHE_SIZE = 64
+
+
+class GoalPoints:
+    """The stereo rig's cameras as floats, and the triangulations of single goals already
+    computed with them (a remembered point has the same bits as a recomputed one)."""
+
+    def __init__(self, cameras: tuple[CameraFloats, ...]) -> None:
+        self.cameras = cameras
+        self._memo: dict[tuple[float, ...], tuple[float, ...]] = {}
+
+    def point(self, q: tuple[float, ...]) -> tuple[float, ...]:
+        p = self._memo.get(q)
+        if p is None:
+            if len(self._memo) >= CACHE_SIZE:
+                self._memo.clear()
+            p = self._memo[q] = triangulate_elementwise(self.cameras, q)
+        return p
 
 
 def _seen(info: Mapping[str, Any]) -> bool:
     try:
-        return bool(np.all(info[SEEN_KEY]))
+        seen = info[SEEN_KEY]
+        return all(seen.tolist()) if isinstance(seen, np.ndarray) else bool(np.all(seen))
     except KeyError:
         raise KeyError(
             f"info has no {SEEN_KEY!r}: pass the info dict(s) the env returned with these goals "
@@ -55,7 +75,7 @@ def seen_flags(info: Any, shape: tuple[int, ...]) -> bool | np.ndarray:
 
 
 def reward_terms(
-    cameras: Sequence[CameraFloats],
+    goals: GoalPoints,
     achieved: Sequence[Any],
     desired: Sequence[Any],
     seen: bool | np.ndarray,
@@ -64,15 +84,17 @@ def reward_terms(
     """(reward_distance, reward_unseen) in metres, elementwise.
 
     Args:
-        cameras: the stereo rig's two cameras (``envs.triangulation.camera_floats``).
+        goals: the stereo rig's two cameras (and remembered single points).
         achieved, desired: four pixel coordinates each, Python floats for one transition or
             arrays of the batch shape.
         seen: effector marker seen, bool or bool array of the batch shape.
         penalty: what an unseen marker costs, metres (> 0).
     """
-    distance = distance_elementwise(
-        triangulate_elementwise(cameras, achieved), triangulate_elementwise(cameras, desired)
-    )
-    if isinstance(seen, bool):
+    if isinstance(seen, bool):  # one transition, Python floats
+        distance = distance_elementwise(goals.point(tuple(achieved)), goals.point(tuple(desired)))
         return -distance, 0.0 if seen else -float(penalty)
+    distance = distance_elementwise(
+        triangulate_elementwise(goals.cameras, achieved),
+        triangulate_elementwise(goals.cameras, desired),
+    )
     return -distance, np.where(seen, 0.0, -penalty)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import matplotlib
@@ -39,12 +40,35 @@ def table(curves: list[Curve]) -> str:
         reached = [steps_to_reach(runs, t) for t in THRESHOLDS]
         cells = " | ".join("not reached" if s is None else f"{s:,}" for s in reached)
         ms = np.mean([c.train_seconds / c.steps[-1] for c in runs]) * MS
-        spread = f" ± {final.std(ddof=1):.1f}" if len(runs) > 1 else ""
+        spread = f" ± {final.std(ddof=1):.2f}" if len(runs) > 1 else ""
         lines.append(
             f"| {LABELS.get(method, method)} | {len(runs)} | {runs[0].steps[-1]:,} | "
             f"{final.mean():.2f}{spread} | {median:.2f} | {cells} | {ms:.2f} |"
         )
     return "\n".join(lines)
+
+
+def load(path: Path) -> dict[tuple[str, str, str], list[Curve]]:
+    """Curves of a ``curves.jsonl`` by (env, sensing, control), in the order written."""
+    out: dict[tuple[str, str, str], list[Curve]] = {}
+    for line in path.read_text().splitlines():
+        row = json.loads(line)
+        key = (row.pop("env"), row.pop("sensing"), row.pop("control"))
+        out.setdefault(key, []).append(Curve(**row))
+    return out
+
+
+def report(folder: Path, targets: int) -> str:
+    """Table (markdown) and one plot per env and setting from ``folder/curves.jsonl``; writes
+    ``folder/table.md`` and ``folder/<env>_<sensing>_<control>.png``; returns the table."""
+    sections = []
+    for (env_id, sensing, control), curves in load(folder / "curves.jsonl").items():
+        title = f"{env_id} ({sensing}, {control}), {targets} held-out targets"
+        plot(curves, title, folder / f"{env_id}_{sensing}_{control}.png")
+        sections.append(f"### {title}\n\n{table(curves)}\n")
+    text = "\n".join(sections)
+    (folder / "table.md").write_text(text)
+    return text
 
 
 def plot(curves: list[Curve], title: str, path: Path) -> Path:

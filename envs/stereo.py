@@ -107,10 +107,21 @@ class CameraPair:
         self._projection = {
             n: np.vstack([c.projection_matrix(n) for c in self.cameras]).T for n in (False, True)
         }
+        self._rows_of: dict | None = None  # _projection when _rows was read from it
+        self._rows: list[list[float]] = []  # pixel projection rows as floats (project_point)
 
     def project(self, points: np.ndarray, normalized: bool = False) -> np.ndarray:
         """World points (N, 3) -> (N, 4) pixels (or normalised coordinates) in both cameras."""
         return self.project_with_depth(points, normalized)[0]
+
+    def project_point(self, point: np.ndarray) -> tuple[list[float], list[float]]:
+        """One world point (3,) -> pixels [u1, v1, u2, v2] and depths [d1, d2] (m) as Python
+        floats: :meth:`project_with_depth` for a single point, without array overhead."""
+        if self._rows_of is not self._projection:  # the rig's matrices were replaced
+            self._rows_of, self._rows = self._projection, self._projection[False].T.tolist()
+        x, y, z = point.tolist()
+        h = [a * x + b * y + c * z + d for a, b, c, d in self._rows]  # (6,) d1 u1, d1 v1, d1, ...
+        return [h[0] / h[2], h[1] / h[2], h[3] / h[5], h[4] / h[5]], [h[2], h[5]]
 
     def project_with_depth(
         self, points: np.ndarray, normalized: bool = False

@@ -1,8 +1,17 @@
 """Reach-env speed: steps per second for every robot × sensing × control, against Gymnasium's
-``Reacher-v5`` measured in the same run, plus the cost of one rendered stereo sensing.
+``Reacher-v5`` measured in the same run, plus the cost of one rendered stereo sensing, plus the
+RL loop.
 
     .venv/bin/python scripts/bench_envs.py [--steps 200] [--json runs/bench_envs.json]
     .venv/bin/python scripts/bench.py envs [same options]
+    .venv/bin/python scripts/bench_envs.py --rl-only [--rl-steps 20000] [--rl-rounds 5]
+
+RL loop: the loop of an RL library, on ``gym.make`` envs (their registered time limits and
+wrappers), random actions, ``reset()`` whenever an episode ends (every 4 moves for the reach
+envs, every 50 steps for Reacher-v5). ``RiacsReach-v0`` and ``PumaReach-v0`` (project,
+kinematic) and Reacher-v5 run in alternating rounds so that load from other processes falls on
+all of them; reported: transitions/s with the resets, steps/s without them, µs per reset, each
+with its ratio to Reacher-v5.
 
 Each row: construct the env (not timed), reset it (not timed: this also starts the renderers),
 then time ``--steps`` moves with random in-range commands drawn beforehand. The envs are stepped
@@ -69,6 +78,78 @@ def peer_steps_per_second(n_steps: int, seed: int) -> float | None:
     rate = time_steps(env, n_steps, seed)
     env.close()
     return rate
+
+
+RL_ENVS = ("RiacsReach-v0", "PumaReach-v0")
+RL_SETTING = {"sensing": "project", "control": "kinematic"}
+US_PER_S = 1e6
+
+
+def rl_loop(env: gym.Env, actions: np.ndarray) -> tuple[float, float, int]:
+    """Seconds in total and in resets, and the number of resets, for one pass of ``actions``
+    (the first reset, which seeds the env, is not timed)."""
+    reset_s, resets = 0.0, 0
+    start = time.perf_counter()
+    for action in actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            t = time.perf_counter()
+            env.reset()
+            reset_s += time.perf_counter() - t
+            resets += 1
+    return time.perf_counter() - start, reset_s, resets
+
+
+def time_rl_loop(n_steps: int, rounds: int, seed: int) -> list[dict]:
+    """The RL loop for each of RL_ENVS and PEER_ID, ``rounds`` alternating passes each."""
+    makers = {env_id: lambda e=env_id: gym.make(e, **RL_SETTING) for env_id in RL_ENVS}
+    makers[PEER_ID] = lambda: gym.make(PEER_ID)
+    envs_, actions, totals = {}, {}, {}
+    for env_id, make in makers.items():
+        env = envs_[env_id] = make()
+        env.reset(seed=seed)
+        space = env.action_space
+        rng = np.random.default_rng(seed)
+        actions[env_id] = rng.uniform(space.low, space.high, (n_steps, *space.shape))
+        totals[env_id] = np.zeros(3)  # total s, reset s, resets
+    for _ in range(rounds):
+        for env_id, env in envs_.items():
+            totals[env_id] += rl_loop(env, actions[env_id])
+    rows = []
+    for env_id, (total, reset, resets) in totals.items():
+        steps = n_steps * rounds
+        rows.append(
+            {
+                "env": env_id,
+                "transitions_per_s": steps / total,
+                "steps_per_s": steps / (total - reset),
+                "us_per_reset": reset / max(resets, 1) * US_PER_S,
+                "resets": int(resets),
+            }
+        )
+        envs_[env_id].close()
+    peer = rows[-1]
+    for row in rows:
+        row["ratio_with_resets"] = row["transitions_per_s"] / peer["transitions_per_s"]
+        row["ratio_step_only"] = row["steps_per_s"] / peer["steps_per_s"]
+        row["ratio_reset_cost"] = row["us_per_reset"] / peer["us_per_reset"]
+    return rows
+
+
+def format_rl_table(rows: list[dict]) -> str:
+    lines = [
+        f"RL loop (gym.make, random actions, reset at episode end; {RL_SETTING['sensing']}, "
+        f"{RL_SETTING['control']}); ratios against {PEER_ID} in the same run",
+        f"{'env':<15} {'transitions/s':>13} {'×peer':>6} {'steps/s':>9} {'×peer':>6} "
+        f"{'µs/reset':>9} {'×peer':>6}",
+    ]
+    for r in rows:
+        lines.append(
+            f"{r['env']:<15} {r['transitions_per_s']:>13.0f} {r['ratio_with_resets']:>6.2f} "
+            f"{r['steps_per_s']:>9.0f} {r['ratio_step_only']:>6.2f} "
+            f"{r['us_per_reset']:>9.1f} {r['ratio_reset_cost']:>6.2f}"
+        )
+    return "\n".join(lines)
 
 
 def run(steps: int, peer_steps: int, sense_repeats: int, seed: int) -> dict:
@@ -139,13 +220,22 @@ def main(argv: list[str] | None = None) -> dict:
         "--sense-repeats", type=cli.positive_int, default=50, help="timed stereo.sense calls"
     )
     parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    parser.add_argument(
+        "--rl-steps", type=cli.positive_int, default=20_000, help="RL-loop steps per round"
+    )
+    parser.add_argument(
+        "--rl-rounds", type=cli.positive_int, default=5, help="alternating RL-loop rounds"
+    )
+    parser.add_argument("--rl-only", action="store_true", help="only the RL loop")
     parser.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = parser.parse_args(argv)
-    for name in ("steps", "peer_steps", "sense_repeats"):
-        if getattr(args, name) < 1:
-            parser.error(f"--{name.replace('_', '-')} must be at least 1")
-    results = run(args.steps, args.peer_steps, args.sense_repeats, args.seed)
-    print(format_table(results))
+    results = (
+        {} if args.rl_only else run(args.steps, args.peer_steps, args.sense_repeats, args.seed)
+    )
+    if results:
+        print(format_table(results))
+    results["rl_loop"] = time_rl_loop(args.rl_steps, args.rl_rounds, args.seed)
+    print(format_rl_table(results["rl_loop"]))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(results, indent=2) + "\n")

@@ -6,7 +6,8 @@
         --budget 5000 --seeds 0 --out runs/compare_rl/render
 
 Needs the ``rl`` extra (``pip install -e ".[rl]"``). Writes OUT/curves.jsonl (one line per
-method and seed, appended as each finishes), OUT/table.md and OUT/<env>.png.
+method and seed, appended as each finishes; runs split over several invocations with the same
+OUT add up), and from all of it OUT/table.md and OUT/<env>_<sensing>_<control>.png.
 """
 
 from __future__ import annotations
@@ -50,9 +51,8 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     args.out.mkdir(parents=True, exist_ok=True)
     points = checkpoints(args.budget, args.checkpoints)
     setting = {"sensing": args.sensing, "control": args.control}
-    curves, sections = [], []
+    curves = []
     for env_id in args.env:
-        env_curves = []
         for method in args.methods:
             for seed in args.seeds:
                 curve = run_method(
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
                     points=points,
                     targets=args.targets,
                 )
-                env_curves.append(curve)
+                curves.append(curve)
                 with open(args.out / "curves.jsonl", "a") as f:
                     f.write(json.dumps({"env": env_id, **setting, **curve.to_json()}) + "\n")
                 print(
@@ -72,12 +72,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
                     f"distance after {curve.steps[-1]} env steps",
                     flush=True,
                 )
-        title = f"{env_id} ({args.sensing}, {args.control}), {args.targets} held-out targets"
-        rl_report.plot(env_curves, title, args.out / f"{env_id}.png")
-        sections.append(f"### {title}\n\n{rl_report.table(env_curves)}\n")
-        curves += env_curves
-    (args.out / "table.md").write_text("\n".join(sections))
-    print("\n".join(sections))
+    print(rl_report.report(args.out, args.targets))
     return curves
 
 

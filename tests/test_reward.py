@@ -9,6 +9,7 @@ cameras' 3×4 projection matrices solved by ``numpy.linalg.lstsq``).
 from __future__ import annotations
 
 import gymnasium as gym
+import mujoco
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
@@ -178,3 +179,26 @@ def test_goal_spaces_are_the_image(robot, joints):
     np.testing.assert_array_equal(space.high, [319, 239, 319, 239])
     assert env.observation_space["achieved_goal"] == space
     np.testing.assert_array_equal(env.observation_space["observation"].low, env.joint_lower)
+
+
+@pytest.mark.parametrize(("robot", "joints"), SETTINGS)
+def test_kinematic_moves_leave_the_positions_mj_forward_gives(robot, joints):
+    """The kinematic fast path (mj_kinematics + mj_camlight) against a full mj_forward."""
+    env = ReachEnv(robot=robot, joints=joints, sensing="project", control="kinematic")
+    env.reset(seed=45)
+    env.step(env.action_space.sample())
+    fresh = mujoco.MjData(env.model)
+    fresh.qpos[:], fresh.mocap_pos[:] = env.data.qpos, env.data.mocap_pos
+    mujoco.mj_forward(env.model, fresh)
+    for name in ("xpos", "xmat", "site_xpos", "geom_xpos", "geom_xmat", "cam_xpos", "cam_xmat"):
+        np.testing.assert_array_equal(getattr(env.data, name), getattr(fresh, name), err_msg=name)
+
+
+def test_project_point_matches_the_array_projection():
+    env = ReachEnv(robot="puma560", sensing="project", control="kinematic")
+    points = np.random.default_rng(46).uniform([-1, -0.5, -0.4], [1, 1.5, 1.6], (20, 3))  # m
+    pixels, depth = env.stereo.project_with_depth(points)
+    for p, uv, d in zip(points, pixels, depth, strict=True):
+        got_uv, got_d = env.stereo.project_point(p)
+        np.testing.assert_allclose(got_uv, uv, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(got_d, d, rtol=1e-12)
