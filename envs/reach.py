@@ -17,6 +17,7 @@ from envs.reward import GoalPoints, reward_terms, seen_flags
 from envs.robots import ROBOTS, RobotSpec
 from envs.stereo import CameraPair, StereoRig
 from envs.triangulation import camera_floats
+from envs.viewer import HumanViewer
 from models import load_model
 
 SENSING_MODES = ("render", "project")
@@ -130,13 +131,17 @@ class ReachEnv(gym.Env):
       images sense more precisely (the cameras' field of view stays the same) and render slower.
     - ``render_mode`` (None): ``"rgb_array"`` gives the left view, the right view and the
       overview side by side, with the target crosshair and the detected marker drawn.
+      ``"human"`` shows the scene (target and marker included) in MuJoCo's viewer
+      (``mujoco.viewer.launch_passive``, a GLFW window) after every reset and move, at most
+      ``render_fps`` frames a second; it needs a display (a desktop or ``xvfb-run``), works with
+      ``MUJOCO_GL=egl`` and raises ``envs.viewer.DisplayUnavailableError`` without a display.
     - ``normalize`` (False): action, joints and goals in [-1, 1]. Off by default: radians and
       pixels are what the learners here and the baselines use, SB3's SAC/TD3 already rescale a
       bounded action space, and ``VecNormalize`` (or this option) fixes the observation scale.
       Turn it on for agents that do not rescale (PPO's Gaussian policy starts with σ = 1).
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 4}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
 
     def __init__(
         self,
@@ -161,7 +166,9 @@ class ReachEnv(gym.Env):
         if not isinstance(control, str) or control not in CONTROL_MODES:
             raise ValueError(f"unknown control {control!r}; valid: {', '.join(CONTROL_MODES)}")
         if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array'")
+            raise ValueError(
+                f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array', 'human'"
+            )
         height, width = arguments.image_size(image_size)
         self.image_height, self.image_width = height, width
         arguments.positive_number("success_threshold (m)", success_threshold)
@@ -200,6 +207,7 @@ class ReachEnv(gym.Env):
         self._view = CompositeView(self.model, height, width)
 
         self._make_spaces(normalize)
+        self._human: HumanViewer | None = None  # render_mode="human": the window, once opened
         self._cameras_read: tuple | None = None  # the rig's cameras when last converted ...
         self._goal_points: GoalPoints | None = None  # ... to floats for the reward
         centre = np.tile([(width - 1) / 2, (height - 1) / 2], 2)
@@ -233,6 +241,8 @@ class ReachEnv(gym.Env):
         observation = self._observation()
         info = self._info(clipped=False, settle_time=0.0)
         self._reward(observation, info)
+        if self.render_mode == "human":
+            self.render()
         return observation, info
 
     def step(self, action: np.ndarray):
@@ -241,7 +251,10 @@ class ReachEnv(gym.Env):
         self._sense_effector()
         observation = self._observation()
         info = self._info(clipped=clipped, settle_time=settle_time)
-        return observation, self._reward(observation, info), False, False, info
+        reward = self._reward(observation, info)
+        if self.render_mode == "human":
+            self.render()
+        return observation, reward, False, False, info
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
@@ -286,6 +299,11 @@ class ReachEnv(gym.Env):
         return distance + unseen
 
     def render(self) -> np.ndarray | None:
+        if self.render_mode == "human":
+            if self._human is None:
+                self._human = HumanViewer(self.metadata["render_fps"])
+            self._human.show(self.model, self.data)
+            return None
         if self.render_mode != "rgb_array":
             return None
         return self._view.render(self.data, self._last["target"], self._detected_effector)
@@ -293,6 +311,9 @@ class ReachEnv(gym.Env):
     def close(self) -> None:
         self.stereo.close()
         self._view.close()
+        if self._human is not None:
+            self._human.close()
+            self._human = None
 
     def perturb(
         self,
