@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 # Headless rendering: EGL (Mesa llvmpipe without a GPU) unless the caller chose a back-end.
 export MUJOCO_GL ?= egl
 
-.PHONY: demo test lint bench soak clean test-sweep sweep-demo
+.PHONY: demo test test-rl lint bench soak clean test-sweep sweep-demo
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +24,14 @@ test: $(VENV)/.installed
 # The long fault test: ten times the signals of the kill test in `make test`.
 soak: $(VENV)/.installed
 	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -rP -n 2 tests/test_kill.py
+
+# The rl extra (Stable-Baselines3 and torch's CPU build) and its tests.
+$(VENV)/.installed-rl: $(VENV)/.installed
+	$(BIN)/python -m pip install --quiet -e ".[dev,rl]"
+	touch $@
+
+test-rl: $(VENV)/.installed-rl
+	$(BIN)/python -m pytest -q -rs tests/test_rl.py
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .

@@ -67,7 +67,8 @@ class ReachEnv(gym.Env):
     image, [0, width - 1] × [0, height - 1] (a marker cut by the image border is not seen, so a
     sensed centre lies inside; the sub-pixel perspective correction is clipped). With
     ``normalize=True`` the action, the joints and the goals are each mapped affinely onto
-    [-1, 1] (joint range; pixel 0 -> -1, width - 1 or height - 1 -> +1).
+    [-1, 1] (joint range; pixel 0 -> -1, width - 1 or height - 1 -> +1), and the action space
+    is float32.
     The target is sensed once per episode, at reset, with the robot out of view; the effector
     marker after every move, with the robot (which may occlude it) but without the target (which
     it would hide). A marker that is not seen by both cameras (occluded, cut by the image border)
@@ -465,13 +466,14 @@ class ReachEnv(gym.Env):
         self._pixel_max = np.tile([self.image_width - 1.0, self.image_height - 1.0], 4)  # px, (8,)
         self._pixel_half = self._pixel_max / 2  # px
         box = gym.spaces.Box
-        if self.normalize:
+        if self.normalize:  # float32 actions, as Stable-Baselines3 recommends
+            self.action_space = box(-1.0, 1.0, (self.joints,), dtype=np.float32)
             joints = box(-1.0, 1.0, (self.joints,), dtype=np.float64)
             pixels = box(-1.0, 1.0, (4,), dtype=np.float64)
         else:
             joints = box(self.joint_lower, self.joint_upper, dtype=np.float64)
             pixels = box(np.zeros(4), self._pixel_max[:4], dtype=np.float64)
-        self.action_space = joints
+            self.action_space = joints
         self.observation_space = gym.spaces.Dict(
             {"observation": joints, "achieved_goal": pixels, "desired_goal": pixels}
         )

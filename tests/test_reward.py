@@ -133,7 +133,7 @@ def test_bad_goals_and_infos_are_refused_with_the_reason():
 @pytest.mark.parametrize("sensing", SENSING)
 def test_normalized_spaces_keep_the_contract(sensing):
     env = ReachEnv(robot="puma560", sensing=sensing, control="servo", normalize=True)
-    assert env.action_space == gym.spaces.Box(-1.0, 1.0, (3,), np.float64)
+    assert env.action_space == gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
     obs, _ = env.reset(seed=43)
     for action in ([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0], [0.2, -0.3, 0.4], [3.0, -3.0, 0.0]):
         obs, reward, _, _, info = env.step(np.array(action))

@@ -1,0 +1,108 @@
+"""The ``rl`` extra: Stable-Baselines3's ``check_env`` on every env and setting, and a short
+SAC + HER run whose relabelled rewards come from the env's ``compute_reward``.
+
+Skipped, with the reason, when the extra is not installed (``make test-rl`` installs it). The SB3
+parts run in child processes that import torch before anything renders (see
+``scripts/compare_rl.py``: Mesa's and triton's LLVMs clash), whatever this process has drawn.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from importlib.util import find_spec
+
+import pytest
+
+pytestmark = pytest.mark.skipif(
+    find_spec("stable_baselines3") is None or find_spec("torch") is None,
+    reason="the rl extra is not installed (pip install -e '.[rl]', or make test-rl)",
+)
+CHILD_TIMEOUT = 600.0  # s; the SB3 checks of all twelve reach settings take ~1 min on one core
+PRELUDE = "import torch, torch._dynamo\nimport json, warnings\nimport numpy as np\nimport envs\n"
+#: SB3's and Gymnasium's advice for the default action space (radians, float64); ``normalize``
+#: follows it.
+ADVICE = ("symmetric and normalized", "we recommend using np.float32")
+
+
+def _child(code: str) -> object:
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    done = subprocess.run(
+        [sys.executable, "-c", PRELUDE + textwrap.dedent(code)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=CHILD_TIMEOUT,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_sb3_check_env_on_every_env_and_setting():
+    results = _child(
+        """
+        import gymnasium as gym
+        from stable_baselines3.common.env_checker import check_env
+
+        settings = []
+        for env_id, extra in (("RiacsReach-v0", {}), ("PumaReach-v0", {}),
+                              ("PumaReach-v0", {"joints": 6})):
+            for sensing in ("render", "project"):
+                for control in ("servo", "kinematic"):
+                    settings.append((env_id, {"sensing": sensing, "control": control, **extra}))
+        settings.append(("RiacsReach-v0", {"sensing": "project", "control": "servo",
+                                           "normalize": True}))
+        settings += [("PumaTrack-v0", {"sensing": s}) for s in ("project", "render")]
+        out = []
+        for env_id, kwargs in settings:
+            env = gym.make(env_id, **kwargs).unwrapped
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                check_env(env, warn=True, skip_render_check=True)
+            out.append([env_id, kwargs, sorted({str(w.message)[:200] for w in caught})])
+            env.close()
+        print(json.dumps(out))
+        """
+    )
+    assert len(results) == 15
+    for env_id, kwargs, messages in results:
+        other = [m for m in messages if not any(a in m for a in ADVICE)]
+        assert other == [], (env_id, kwargs)  # check_env raised nothing and warns of nothing else
+        if kwargs.get("normalize"):
+            assert messages == [], (env_id, kwargs)
+
+
+def test_sac_her_learns_from_rewards_the_env_computes():
+    """200 steps of SAC + HER (learning after 100); every sampled reward, relabelled or not, is
+    the env's reward for its goals: compute_reward(info=None), minus the reach if the marker was
+    not seen."""
+    result = _child(
+        """
+        import gymnasium as gym
+        from stable_baselines3 import SAC, HerReplayBuffer
+
+        env = gym.make("RiacsReach-v0", sensing="project", control="kinematic")
+        model = SAC("MultiInputPolicy", env, seed=0, device="cpu", learning_starts=100,
+                    batch_size=64, replay_buffer_class=HerReplayBuffer,
+                    replay_buffer_kwargs={"n_sampled_goal": 4, "copy_info_dict": True})
+        model.learn(200)
+        batch = model.replay_buffer.sample(256)
+        base = env.unwrapped
+        achieved = batch.next_observations["achieved_goal"].numpy()
+        desired = batch.observations["desired_goal"].numpy()
+        rewards = batch.rewards.numpy()[:, 0]
+        seen = base.compute_reward(achieved, desired, None)
+        buffer = model.replay_buffer
+        stored = buffer.next_observations["achieved_goal"][: buffer.pos, 0]  # (n, 4) float32
+        relabelled = (desired[:, None, :] == stored[None]).all(axis=-1).any(axis=1)
+        print(json.dumps({"steps": model.num_timesteps, "gap": (seen - rewards).tolist(),
+                          "reach": base.reach, "relabelled": int(relabelled.sum())}))
+        """
+    )
+    assert result["steps"] == 200
+    assert result["relabelled"] > 0  # precondition: HER replaced goals in this sample
+    for gap in result["gap"]:  # float32 buffer: rewards are stored to ~1e-7 m
+        assert gap == pytest.approx(0.0, abs=1e-6) or gap == pytest.approx(result["reach"], 1e-6)
