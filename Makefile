@@ -19,7 +19,7 @@ demo: $(VENV)/.installed
 	$(BIN)/python scripts/demo.py --out runs/demo
 
 test: $(VENV)/.installed
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile --ignore=tests/test_rl.py  # rl: make test-rl
 
 # The long fault test: ten times the signals of the kill test in `make test`.
 soak: $(VENV)/.installed
