@@ -14,6 +14,7 @@ import numpy as np
 from envs.rl_compare import THRESHOLDS, Curve, steps_to_reach
 
 LABELS = {"map": "visuomotor map", "sac_her": "SAC + HER", "sac": "SAC", "ppo": "PPO"}
+COLOURS = {"map": "C0", "sac_her": "C1", "sac": "C3", "ppo": "C2"}  # the same in every plot
 MM, MS = 1e3, 1e3  # m -> mm, s -> ms
 
 
@@ -78,11 +79,11 @@ def plot(curves: list[Curve], title: str, path: Path) -> Path:
     for method, runs in group(curves).items():
         steps = np.mean([c.steps for c in runs], axis=0)
         mm = np.array([c.mean_m for c in runs]) * MM  # (seeds, checkpoints)
-        (line,) = ax.loglog(steps, mm.mean(axis=0), marker="o", ms=3, label=LABELS[method])
+        colour = COLOURS[method]
+        label = f"{LABELS[method]} ({len(runs)} seed{'s' if len(runs) > 1 else ''})"
+        ax.loglog(steps, mm.mean(axis=0), marker="o", ms=3, color=colour, label=label)
         if len(runs) > 1:
-            ax.fill_between(
-                steps, mm.min(axis=0), mm.max(axis=0), color=line.get_color(), alpha=0.2
-            )
+            ax.fill_between(steps, mm.min(axis=0), mm.max(axis=0), color=colour, alpha=0.2)
     for t in THRESHOLDS:
         ax.axhline(t * MM, color="grey", lw=0.6, ls=":")
     ax.set_xlabel("environment steps (moves)")
