@@ -1,9 +1,9 @@
 """The visuomotor map against SB3's SAC + HER, SAC and PPO: learning curves on held-out targets.
 
-    python scripts/compare_rl.py --env RiacsReach-v0 PumaReach-v0 --sensing project \\
-        --control kinematic --budget 20000 --seeds 0 1 2 --out runs/compare_rl/project
-    python scripts/compare_rl.py --env RiacsReach-v0 --sensing render --control servo \\
-        --budget 5000 --seeds 0 --out runs/compare_rl/render
+    .venv/bin/python scripts/compare_rl.py --env RiacsReach-v0 PumaReach-v0 --sensing project \\
+        --control kinematic --budget 10000 --checkpoints 6 --seeds 0 1 2 --out runs/compare_rl/pk
+    .venv/bin/python scripts/compare_rl.py --env RiacsReach-v0 --sensing render --control servo \\
+        --budget 1000 --checkpoints 2 --targets 200 --seeds 0 --out runs/compare_rl/rs
 
 Needs the ``rl`` extra (``pip install -e ".[rl]"``). Writes OUT/curves.jsonl (one line per
 method and seed, appended as each finishes; runs split over several invocations with the same
@@ -22,9 +22,10 @@ try:
 except ImportError as exc:  # pragma: no cover - depends on the installation
     raise SystemExit(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'") from exc
 
-import argparse
 import json
 from pathlib import Path
+
+import cli
 
 import envs  # noqa: F401  (GL back-end, registration)
 from envs import rl_report
@@ -34,19 +35,26 @@ TORCH_THREADS = 1  # the machine is shared: one core per run
 
 
 def main(argv: list[str] | None = None) -> list[Curve]:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--env", nargs="+", default=["RiacsReach-v0", "PumaReach-v0"])
+    p = cli.parser(__doc__)
+    p.add_argument(
+        "--env", nargs="+", choices=("RiacsReach-v0", "PumaReach-v0"),
+        default=["RiacsReach-v0", "PumaReach-v0"],
+    )  # fmt: skip
     p.add_argument("--sensing", choices=("project", "render"), default="project")
     p.add_argument("--control", choices=("kinematic", "servo"), default="kinematic")
     p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
-    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    p.add_argument("--budget", type=int, default=20_000, help="env steps per method and seed")
-    p.add_argument("--checkpoints", type=int, default=6, help="evaluations, log-spaced")
-    p.add_argument("--targets", type=int, default=1000, help="held-out targets per evaluation")
+    p.add_argument("--seeds", nargs="+", type=cli.nonnegative_int, default=[0, 1, 2])
+    p.add_argument(
+        "--budget", type=cli.positive_int, default=10_000, help="env steps per method and seed"
+    )
+    p.add_argument(
+        "--checkpoints", type=cli.positive_int, default=6, help="evaluations, log-spaced"
+    )
+    p.add_argument(
+        "--targets", type=cli.positive_int, default=1000, help="held-out targets per evaluation"
+    )
     p.add_argument("--out", type=Path, default=Path("runs/compare_rl"))
     args = p.parse_args(argv)
-    if args.budget < 1 or args.checkpoints < 1 or args.targets < 1:
-        p.error("--budget, --checkpoints and --targets must be at least 1")
     torch.set_num_threads(TORCH_THREADS)
     args.out.mkdir(parents=True, exist_ok=True)
     points = checkpoints(args.budget, args.checkpoints)
@@ -77,4 +85,4 @@ def main(argv: list[str] | None = None) -> list[Curve]:
 
 
 if __name__ == "__main__":
-    main()
+    cli.run(main)
