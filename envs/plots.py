@@ -21,7 +21,8 @@ def _move_name(k: int) -> str:
 
 
 def learning_curve(rows: list[dict], reach: float, path: Path) -> Path:
-    """Held-out mean error after each move vs training trials, log scale (mm and % reach)."""
+    """Held-out mean error (all trials) after each move vs training trials, log scale (mm and
+    % reach)."""
     trials = np.array([r["trial"] for r in rows])
     errors = np.array([r["mean_mm"] for r in rows])  # (evals, moves)
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -40,20 +41,23 @@ def learning_curve(rows: list[dict], reach: float, path: Path) -> Path:
 
 
 def error_histogram(result: Evaluation, path: Path) -> Path | None:
-    """Distribution of the distance to the target after each move (log-spaced bins, mm)."""
+    """Distribution of the distance to the target after each move over all trials (a trial that
+    stopped counts where it stopped; log-spaced bins, mm); None when all errors are 0."""
     mm = result.distances * 1e3
-    finite = mm[np.isfinite(mm) & (mm > 0)]
-    if finite.size < 2:
+    positive = mm[mm > 0]
+    if positive.size < 2:
         return None
-    bins = np.logspace(np.log10(finite.min()), np.log10(finite.max()), 40)
+    floor = positive.min()  # exact zeros go into the lowest bin of the log axis
+    bins = np.logspace(np.log10(floor), np.log10(positive.max()), 40)
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for k in range(result.moves):
-        ax.hist(mm[:, k][np.isfinite(mm[:, k])], bins=bins, alpha=0.55, label=_move_name(k))
+        ax.hist(np.maximum(mm[:, k], floor), bins=bins, alpha=0.55, label=_move_name(k))
     ax.set_xscale("log")
     ax.set_xlabel("distance to target [mm]")
     ax.set_ylabel("trials")
     ax.legend()
-    ax.set_title(f"Errors on {len(mm)} held-out targets")
+    stopped = int((~result.complete).sum())
+    ax.set_title(f"Errors on {len(mm)} held-out targets ({stopped} stopped early, counted)")
     return _save(fig, path)
 
 
@@ -79,13 +83,17 @@ def lattice_in_image(
 
 
 def reached_3d(result: Evaluation, path: Path) -> Path:
-    """Targets and the positions reached after the last move, in 3-D (m)."""
+    """Targets and the positions where the arm ended (after the last move, or where the trial
+    stopped), in 3-D (m)."""
     fig = plt.figure(figsize=(6.4, 5.2))
     ax = fig.add_subplot(projection="3d")
     t = result.target_pos
     ax.scatter(*t.T, s=6, c="tab:red", label="target", depthshade=False)
-    ok = np.all(np.isfinite(result.reached), axis=1)
+    ok = result.complete
     ax.scatter(*result.reached[ok].T, s=3, c="tab:green", label="reached", depthshade=False)
+    if not ok.all():
+        stop = result.reached[~ok]
+        ax.scatter(*stop.T, s=8, c="k", marker="x", label="stopped early", depthshade=False)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
@@ -94,23 +102,24 @@ def reached_3d(result: Evaluation, path: Path) -> Path:
     return _save(fig, path)
 
 
-def error_map(result: Evaluation, path: Path, move: int = 0) -> Path | None:
-    """Error after ``move`` at each target position, three projections (colour = mm, log);
-    None (no file) when no trial got that far."""
-    mm = result.distances[:, move] * 1e3
-    ok = np.isfinite(mm)
-    if not ok.any():
-        return None
-    t = result.target_pos[ok]
+def error_map(result: Evaluation, path: Path, move: int = 0) -> Path:
+    """Error after ``move`` at each target position, three projections (colour = mm, log); every
+    trial is drawn, those that stopped before ``move`` (error where they stopped) as crosses."""
+    mm = np.maximum(result.distances[:, move] * 1e3, 1e-3)  # log colour scale: 1 µm floor
+    made = result.moves_made > move
+    t = result.target_pos
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.8))
-    norm = matplotlib.colors.LogNorm(vmin=max(mm[ok].min(), 1e-3), vmax=mm[ok].max())
+    norm = matplotlib.colors.LogNorm(vmin=mm.min(), vmax=max(mm.max(), mm.min() * 1.01))
     for ax, (i, j, name) in zip(axes, ((0, 1, "x-y"), (0, 2, "x-z"), (1, 2, "y-z")), strict=True):
-        sc = ax.scatter(t[:, i], t[:, j], c=mm[ok], s=10, cmap="viridis", norm=norm)
+        for keep, marker in ((made, "o"), (~made, "x")):
+            sc = ax.scatter(
+                t[keep, i], t[keep, j], c=mm[keep], s=10, marker=marker, cmap="viridis", norm=norm
+            )
         ax.set_xlabel("xyz"[i] + " [m]")
         ax.set_ylabel("xyz"[j] + " [m]")
         ax.set_title(name)
         ax.set_aspect("equal", adjustable="datalim")
-    fig.colorbar(sc, ax=axes, label=f"error after {_move_name(move)} [mm]")
+    fig.colorbar(sc, ax=axes, label=f"error after {_move_name(move)} [mm] (x: stopped earlier)")
     return _save(fig, path)
 
 

@@ -30,6 +30,9 @@ class Trial:
     visible: list[bool] = field(default_factory=list)  # both markers seen after move k
     reached: list[np.ndarray] = field(default_factory=list)  # (3,) world m, after move k
     target_pos: np.ndarray | None = None  # (3,) world, m
+    start_distance: float = float("nan")  # m, ground truth before the coarse move
+    start_pixel_error: float = float("nan")  # px, before the coarse move
+    start_pos: np.ndarray | None = None  # (3,) world m, the sensed point before the coarse move
 
     @property
     def target_visible(self) -> bool:
@@ -72,6 +75,9 @@ def run_trial(
     trial = Trial(
         target_px=base.sensed_target(),
         target_pos=info["target_pos"],
+        start_distance=info["distance"],
+        start_pixel_error=info["pixel_error"],
+        start_pos=info["effector_pos"],
     )
     controller.reset()
     if on_move is not None:

@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> None:
     print("  scenes/*.png                 both cameras and an overview of each scene")
     print("  puma/, riacs/                trained maps (som.npz), metrics.jsonl, eval plots")
     print("  puma_som.mp4, riacs_som.mp4  rendered evaluation videos (coarse, then fine moves)")
-    print("  summary.json                 mean errors after each move, both arms, both settings")
+    print("  summary.json                 errors after each move (all trials), both arms")
 
 
 if __name__ == "__main__":

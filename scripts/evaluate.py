@@ -100,16 +100,21 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 def format_table(rows: list[dict]) -> str:
+    """Mean error after each move, then median and 95th percentile after the last, all over
+    every trial (a trial that stopped counts where it stopped), and the complete trials."""
     moves = len(rows[0]["mean_mm"])
     names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
     head = f"{'controller':<18}" + "".join(f"{n + ' [mm]':>14}" for n in names)
-    head += f"{'last [% reach]':>16}{'last [px]':>11}{'us/query':>10}{'complete':>10}"
+    head += f"{'last median':>12}{'last p95':>10}{'last [% reach]':>16}{'last [px]':>11}"
+    head += f"{'us/query':>10}{'complete':>10}"
     lines = [head, "-" * len(head)]
     for r in rows:
         line = f"{r['controller']:<18}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
+        line += f"{r['median_mm'][-1]:>12.3f}{r['p95_mm'][-1]:>10.3f}"
         line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
-        line += f"{r['microseconds_per_query']:>10.1f}{r['complete_trials']:>10d}"
+        line += f"{r['microseconds_per_query']:>10.1f}{r['complete_fraction'] * 100:>9.1f}%"
         lines.append(line)
+    lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
     return "\n".join(lines)
 
 
