@@ -1,4 +1,5 @@
-"""Finding a coloured sphere in a camera image, and the centre of its perspective image.
+"""Finding a coloured sphere in a camera image: its blob, the centre of its perspective image
+from the blob's pixels, and the blob's edges that are the sphere's own outline.
 
 The image of a sphere is an ellipse whose major axis lies on the ray from the principal point;
 its ends are the projections of the tangent directions φ - α and φ + α, where φ is the off-axis
@@ -16,11 +17,9 @@ import numpy as np
 
 #: Fewest pixels a blob may have to count as a sighting.
 MIN_BLOB_PIXELS = 4
-#: A blob covering less of its convex hull than this is taken as partly occluded: not visible.
+#: A blob covering less of its convex hull than this is taken as partly occluded: not visible
+#: (centroid sensing of the target, which is sensed with the robot out of view).
 MIN_FILL_RATIO = 0.7
-#: A blob (hull filled) smaller than this share of the image of the whole sphere, computed from
-#: its known radius and triangulated position, is taken as partly occluded: not visible.
-MIN_AREA_RATIO = 0.75
 
 
 @dataclass(frozen=True)
@@ -42,7 +41,7 @@ class MarkerColour:
 
 
 RED_TARGET = MarkerColour("target", True, ((0, 8), (172, 179)))
-GREEN_EFFECTOR = MarkerColour("effector", False, ((45, 75),))
+GREEN_EFFECTOR = MarkerColour("effector", False, ((45, 75),), min_value=10)
 
 
 @dataclass(frozen=True)
@@ -53,10 +52,67 @@ class Sighting:
     area: float  # px², blob with its convex hull filled
 
 
+@dataclass(frozen=True)
+class Blob:
+    """The largest connected region of a marker's colour in an image (image pixels)."""
+
+    mask: np.ndarray  # (h, w) bool, the region
+    count: int  # pixels in the region
+    touches_border: bool
+
+
+def find_blob(rgb: np.ndarray, colour: MarkerColour, whole: bool = False) -> Blob | None:
+    """The largest 8-connected region of ``colour`` in ``rgb`` (h, w, 3), or None if there is
+    none of at least MIN_BLOB_PIXELS pixels. ``whole``: all regions of that colour together
+    (a marker cut in two by a thin link in front of it)."""
+    mask = colour.mask(rgb)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if count < 2:
+        return None
+    best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    x, y, w, h, area = stats[best]
+    if area < MIN_BLOB_PIXELS:
+        return None
+    height, width = mask.shape
+    if whole:
+        region = labels > 0
+        rows, cols = np.nonzero(region)
+        border = min(rows) == 0 or min(cols) == 0 or max(rows) == height - 1
+        border = border or max(cols) == width - 1
+        return Blob(region, len(rows), bool(border))
+    border = x == 0 or y == 0 or x + w >= width or y + h >= height
+    return Blob(labels == best, int(area), bool(border))
+
+
+def outline_edges(blob: Blob, depth: np.ndarray) -> np.ndarray:
+    """Points (m, 2) (column, row; fractional image pixels) on the blob's outline where the
+    sphere's own edge is seen: between a blob pixel and a 4-neighbour outside the blob that is
+    farther from the camera (the background, or the robot behind the sphere). Edges against a
+    nearer neighbour (an occluder in front) and the image border are left out.
+
+    Args:
+        depth: (h, w) distance along the optical axis, m, of the same render.
+    """
+    m, z = blob.mask, depth
+    points = []
+    for axis in (0, 1):
+        a = [slice(None), slice(None)]
+        b = [slice(None), slice(None)]
+        a[axis], b[axis] = slice(None, -1), slice(1, None)
+        a, b = tuple(a), tuple(b)
+        # (first, second) neighbour pairs along the axis; the outside one must be farther.
+        out_second = m[a] & ~m[b] & (z[b] > z[a])
+        out_first = m[b] & ~m[a] & (z[a] > z[b])
+        rows, cols = np.nonzero(out_second | out_first)
+        step = (0.5, 0.0) if axis == 0 else (0.0, 0.5)
+        points.append(np.stack([cols + step[1], rows + step[0]], axis=-1))
+    return np.concatenate(points).astype(float)
+
+
 def find_sphere(
     rgb: np.ndarray, colour: MarkerColour, center: np.ndarray, focal: np.ndarray
 ) -> Sighting | None:
-    """The sphere of ``colour`` in an image, or None if not visible.
+    """The sphere of ``colour`` in an image from its blob's pixels, or None if not visible.
 
     Not visible: no blob, a blob touching the image border (cut), or one that fills less than
     MIN_FILL_RATIO of its convex hull (partly occluded). A thin link crossing into the blob is
@@ -66,31 +122,29 @@ def find_sphere(
         rgb: (H, W, 3) uint8 image.
         center: (2,) principal point in pixels; focal: (2,) pixels per normalised unit.
     """
-    mask = colour.mask(rgb)
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    if count < 2:
+    blob = find_blob(rgb, colour)
+    if blob is None or blob.touches_border:
         return None
-    best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    x, y, w, h, area = stats[best]
-    height, width = mask.shape
-    if area < MIN_BLOB_PIXELS or x == 0 or y == 0 or x + w >= width or y + h >= height:
-        return None
-    blob = (labels[y : y + h, x : x + w] == best).astype(np.uint8)
-    contours, _ = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    rows, cols = np.nonzero(blob.mask)
+    y, x = rows.min(), cols.min()
+    crop = blob.mask[y : rows.max() + 1, x : cols.max() + 1].astype(np.uint8)
+    contours, _ = cv2.findContours(crop, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     hull = cv2.convexHull(np.concatenate(contours))
-    filled = blob.copy()
+    filled = crop.copy()
     cv2.fillConvexPoly(filled, hull, 1)
-    if area < MIN_FILL_RATIO * filled.sum():
+    if blob.count < MIN_FILL_RATIO * filled.sum():
         return None
     rows, cols = np.nonzero(filled)
     uv = np.stack([cols + x, rows + y], axis=-1).astype(float)  # (n, 2) pixel centres
     centroid = uv.mean(axis=0)
-    return Sighting(_perspective_centre(centroid, uv, center, focal), float(len(uv)))
+    return Sighting(perspective_centre(centroid, uv, center, focal), float(len(uv)))
 
 
-def _perspective_centre(
+def perspective_centre(
     centroid: np.ndarray, uv: np.ndarray, center: np.ndarray, focal: np.ndarray
 ) -> np.ndarray:
+    """The image (2,) px of a sphere's centre from its blob's pixels uv (n, 2) and their
+    centroid (2,) (see the module docstring)."""
     offset = (centroid - center) / focal  # normalised, y downwards (sign does not matter here)
     rho = float(np.hypot(*offset))
     if rho < 1e-9:

@@ -165,6 +165,35 @@ def start_gl_backend() -> str:
     return chosen
 
 
+def check_gl_allowed() -> None:
+    """Raise in a process forked after its parent had started OpenGL; else start the back-end."""
+    if _gl_started_before_fork:
+        raise RenderingUnavailableError(
+            "this process was forked after its parent had started OpenGL (or loaded a GL "
+            "library), and EGL and "
+            "OSMesa hang when started again after a fork. Start worker processes with "
+            "'forkserver' or 'spawn', e.g. gymnasium.vector.AsyncVectorEnv(env_fns, "
+            "context='forkserver'), or create them before anything renders."
+        )
+    start_gl_backend()
+
+
+def gl_start_error(exc: Exception) -> RenderingUnavailableError:
+    """The error to raise when an OpenGL context could not be made."""
+    backend = os.environ.get("MUJOCO_GL", "unset")
+    return RenderingUnavailableError(f"could not start MUJOCO_GL={backend}: {exc}. {_HELP}")
+
+
+def mark_gl_started() -> None:
+    """Record that this process has an OpenGL context (see :func:`check_gl_allowed`)."""
+    global _gl_started
+    _gl_started = True
+
+
+#: Render flags the sensing cameras turn off (flat colours suffice; software GL is faster).
+SENSING_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX")
+
+
 class CameraRenderer:
     """Renders named cameras of one model to RGB arrays, created lazily (so envs pickle).
 
@@ -185,36 +214,23 @@ class CameraRenderer:
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
 
     def _get(self):
-        global _gl_started
         if self._renderer is None:
             import mujoco
 
-            if _gl_started_before_fork:
-                raise RenderingUnavailableError(
-                    "this process was forked after its parent had started OpenGL (or loaded a GL "
-                    "library), and EGL and "
-                    "OSMesa hang when started again after a fork. Start worker processes with "
-                    "'forkserver' or 'spawn', e.g. gymnasium.vector.AsyncVectorEnv(env_fns, "
-                    "context='forkserver'), or create them before anything renders."
-                )
-
-            start_gl_backend()
+            check_gl_allowed()
             samples = self.model.vis.quality.offsamples
             if self.fast:  # the sample count is read when the GL context is made
                 self.model.vis.quality.offsamples = 0
             try:
                 self._renderer = mujoco.Renderer(self.model, self.height, self.width)
             except Exception as exc:  # the GL libraries raise many different types
-                backend = os.environ.get("MUJOCO_GL", "unset")
-                raise RenderingUnavailableError(
-                    f"could not start MUJOCO_GL={backend}: {exc}. {_HELP}"
-                ) from exc
+                raise gl_start_error(exc) from exc
             finally:
                 self.model.vis.quality.offsamples = samples
-            _gl_started = True
+            mark_gl_started()
             if self.fast:
                 flags = self._renderer.scene.flags
-                for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):
+                for flag in SENSING_OFF_FLAGS:
                     flags[getattr(mujoco.mjtRndFlag, flag)] = 0
         return self._renderer
 

@@ -12,9 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from envs.markers import MIN_AREA_RATIO, MarkerColour, find_sphere
-from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET, CameraRenderer
+from envs.markers import MarkerColour, find_blob, find_sphere, outline_edges, perspective_centre
+from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
+from envs.sphere_fit import CameraOutline, locate
 from envs.triangulation import camera_floats, triangulate_elementwise
+from envs.viewports import View, ViewportRenderer, Window
 
 
 @dataclass(frozen=True)
@@ -167,7 +169,8 @@ class StereoRig(CameraPair):
         self.model, self.height, self.width = model, height, width
         self.camera_names = tuple(cameras)
         self.refresh(data)
-        self._renderer = CameraRenderer(model, height, width)
+        # Both cameras side by side in one buffer, rendered and read back together.
+        self._renderer = ViewportRenderer(model, height, 2 * width)
 
     def refresh(self, data) -> None:
         """Re-read both cameras from the model and ``data`` (after ``mj_forward``): after a change
@@ -177,17 +180,42 @@ class StereoRig(CameraPair):
             [PinholeCamera.from_model(self.model, data, c, h, w) for c in self.camera_names]
         )
 
+    def views(self, windows: Sequence[Window] | None = None) -> list[View]:
+        """One :class:`View` per camera: its whole image, or the given windows."""
+        if windows is None:
+            windows = [Window.full(self.height, self.width)] * 2
+        return [
+            View(name, cam.focal, cam.center, w)
+            for name, cam, w in zip(self.camera_names, self.cameras, windows, strict=True)
+        ]
+
     def sense(
-        self, data, marker: MarkerColour, radius: float | None = None
+        self,
+        data,
+        marker: MarkerColour,
+        radius: float | None = None,
+        windows: Sequence[Window] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Render both cameras and find the image centre of one coloured sphere.
 
         Only the geom groups that a real camera would see for that marker are drawn: the target
         is sensed with the robot out of view, the effector marker with the robot (which may
-        occlude it) but without the target (which it reaches and would otherwise hide). With the
-        sphere's ``radius`` (m), an effector blob smaller than MIN_AREA_RATIO of the whole
-        sphere's image at the triangulated position is partly hidden by the robot: not visible.
+        occlude it) but without the target (which it reaches and would otherwise hide).
 
+        Without ``radius`` (the target) the centre comes from the blob's pixels
+        (:func:`envs.markers.find_sphere`: a blob cut by the border or not filling its hull is not
+        visible). With the sphere's ``radius`` (m; the effector marker) it comes from the parts
+        of the outline that are the sphere's own edge (:func:`envs.markers.outline_edges`: not
+        against a nearer occluder, not at the image border), fitted in both cameras at once with
+        that radius (:func:`envs.sphere_fit.locate`), so a partly hidden marker is still found.
+        A camera's sighting counts only when the fit is trustworthy: at least
+        ``sphere_fit.MIN_OUTLINE_POINTS`` outline points within ``TRIM_PX`` of the fitted
+        outline, RMS distance at most ``MAX_RMS_PX`` px, and the blob at least
+        ``1 - MAX_HIDDEN`` of the whole sphere's image area (at most half hidden).
+
+        Args:
+            windows: per camera, the part of its image to render (default: all of it); pixels
+                are always reported in the base image's coordinates.
         Returns:
             pixels (4,) of the sphere centre's image (NaN where not visible), visible (2,) bool.
         """
@@ -196,22 +224,37 @@ class StereoRig(CameraPair):
             if marker.is_target
             else (GROUP_SCENE, GROUP_ROBOT, GROUP_MARKER)
         )
-        pixels = np.full(4, np.nan)
-        visible = np.zeros(2, dtype=bool)
-        areas = np.zeros(2)  # px²
-        for k, (name, cam) in enumerate(zip(self.camera_names, self.cameras, strict=True)):
-            image = self._renderer.render(data, name, groups)
-            found = find_sphere(image, marker, cam.center, cam.focal)
-            if found is not None:
-                pixels[2 * k : 2 * k + 2] = found.uv
-                areas[k] = found.area
-                visible[k] = True
-        if radius is not None and not marker.is_target and visible.all():
-            centre = self.triangulate(pixels)  # (1, 3)
-            whole = np.array([c.sphere_area(centre, radius)[0] for c in self.cameras])  # (2,)
-            visible &= areas >= MIN_AREA_RATIO * whole
-            pixels[np.repeat(~visible, 2)] = np.nan
-        return pixels, visible
+        views = self.views(windows)
+        images = self._renderer.render(data, views, groups)
+        if radius is None:
+            pixels = np.full(4, np.nan)
+            for k, ((rgb, _), view) in enumerate(zip(images, views, strict=True)):
+                if view.window != Window.full(self.height, self.width):
+                    raise ValueError("centroid sensing (no radius) needs whole images")
+                found = find_sphere(rgb, marker, view.center, view.focal)
+                if found is not None:
+                    pixels[2 * k : 2 * k + 2] = found.uv
+            return pixels, np.isfinite(pixels[::2])
+        outlines = [
+            _outline(rgb, depth, marker, cam, view.window)
+            for (rgb, depth), cam, view in zip(images, self.cameras, views, strict=True)
+        ]
+        return locate(outlines, radius, self.triangulate)
 
     def close(self) -> None:
         self._renderer.close()
+
+
+def _outline(
+    rgb: np.ndarray, depth: np.ndarray, marker: MarkerColour, camera: PinholeCamera, window
+) -> CameraOutline | None:
+    """What one camera's view shows of the marker sphere, in base pixels (None: no blob)."""
+    blob = find_blob(rgb, marker, whole=True)
+    if blob is None:
+        return None
+    edges = outline_edges(blob, depth)  # (m, 2) window (column, row)
+    rows, cols = np.nonzero(blob.mask)
+    uv = window.to_base(cols, rows)  # (n, 2)
+    start = perspective_centre(uv.mean(axis=0), uv, camera.center, camera.focal)
+    area = blob.count / window.density**2  # base px²
+    return CameraOutline(camera, window.to_base(edges[:, 0], edges[:, 1]), area, start)

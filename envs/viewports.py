@@ -1,0 +1,203 @@
+"""Several camera views in one off-screen buffer: one render per view, one read-back for all.
+
+Each :class:`View` is a camera drawn into its own viewport, either its whole image or a *window*:
+an axis-aligned part of the camera's image drawn at a higher pixel density, as an off-centre
+frustum (the near-plane rectangle of that part). Colour and depth come back in one
+``mjr_readPixels``; depth is metric (m along the optical axis), used to tell which side of an edge
+is nearer the camera.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from envs.rendering import (
+    RENDERING_HELP,
+    RenderingUnavailableError,
+    check_gl_allowed,
+    mark_gl_started,
+)
+
+#: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
+SQUARE_PIXEL_TOL = 1e-5
+
+
+@dataclass(frozen=True)
+class Window:
+    """A part of a camera's base image drawn at ``density`` pixels per base pixel.
+
+    ``left``, ``top`` are the window's left and top *edges* in base pixel coordinates (the
+    centre of base pixel (row i, column j) is (u, v) = (j, i), its edges at ±0.5); ``width``,
+    ``height`` its size in window pixels. Window pixel (i, j) has its centre at base
+    (left + (j + 0.5) / density, top + (i + 0.5) / density).
+    """
+
+    left: float
+    top: float
+    width: int
+    height: int
+    density: float = 1.0
+
+    @classmethod
+    def full(cls, height: int, width: int) -> Window:
+        """The whole base image at its own density."""
+        return cls(-0.5, -0.5, width, height, 1.0)
+
+    def to_base(self, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Window pixel (column, row) arrays, (n,) each, -> base pixels (n, 2)."""
+        return np.stack(
+            [self.left + (cols + 0.5) / self.density, self.top + (rows + 0.5) / self.density], -1
+        )
+
+
+@dataclass(frozen=True)
+class View:
+    """One camera into one viewport: camera name, its base intrinsics (pixels) and the window
+    (None: the model's own frustum over the whole image)."""
+
+    camera: str
+    focal: np.ndarray  # (2,) px of the base image
+    center: np.ndarray  # (2,) px of the base image
+    window: Window
+
+
+class ViewportRenderer:
+    """Renders views side by side into one off-screen buffer of the model and reads them back.
+
+    Created lazily (so envs pickle); the sensing settings of :class:`CameraRenderer` apply (no
+    shadows, reflections, skybox, textures or multisampling).
+
+    Args:
+        model: the MuJoCo model; its off-screen buffer is enlarged, if needed, to
+            (max_height, max_width) when the context is made.
+    """
+
+    def __init__(self, model, max_height: int, max_width: int) -> None:
+        self.model, self.max_height, self.max_width = model, max_height, max_width
+        self._gl = self._context = self._scene = None
+        self._options: dict = {}  # geom groups -> mujoco.MjvOption
+        self._cameras: dict = {}  # camera name -> mujoco.MjvCamera
+
+    def _start(self) -> None:
+        import mujoco
+
+        check_gl_allowed()
+        g, q = self.model.vis.global_, self.model.vis.quality
+        saved = (g.offwidth, g.offheight, q.offsamples)
+        g.offwidth, g.offheight = max(g.offwidth, self.max_width), max(g.offheight, self.max_height)
+        q.offsamples = 0
+        try:
+            self._gl = mujoco.GLContext(g.offwidth, g.offheight)
+            self._gl.make_current()
+            self._context = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_100)
+        except Exception as exc:  # the GL libraries raise many different types
+            backend = os.environ.get("MUJOCO_GL", "unset")
+            raise RenderingUnavailableError(
+                f"could not start MUJOCO_GL={backend}: {exc}. {RENDERING_HELP}"
+            ) from exc
+        finally:
+            g.offwidth, g.offheight, q.offsamples = saved
+        mark_gl_started()
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+        self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
+        for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):
+            self._scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+
+    def _option(self, groups: tuple[int, ...]):
+        import mujoco
+
+        option = self._options.get(groups)
+        if option is None:
+            option = mujoco.MjvOption()
+            option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = 0
+            option.geomgroup[:] = 0
+            for g in groups:
+                option.geomgroup[g] = 1
+            self._options[groups] = option
+        return option
+
+    def _camera(self, name: str):
+        import mujoco
+
+        cam = self._cameras.get(name)
+        if cam is None:
+            cam = mujoco.MjvCamera()
+            cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+            cam.fixedcamid = self.model.camera(name).id
+            self._cameras[name] = cam
+        return cam
+
+    def render(
+        self, data, views: Sequence[View], groups: Sequence[int]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """RGB (h, w, 3) uint8 and depth (h, w) m of each view, rows top first."""
+        import mujoco
+
+        if self._gl is None:
+            self._start()
+        self._gl.make_current()
+        widths = [v.window.width for v in views]
+        height = max(v.window.height for v in views)
+        if sum(widths) > self.max_width or height > self.max_height:
+            raise ValueError(
+                f"views of {sum(widths)}x{height} px exceed this renderer's "
+                f"{self.max_width}x{self.max_height}; make it larger"
+            )
+        option = self._option(tuple(groups))
+        scene, x = self._scene, 0
+        mujoco.mjv_updateScene(
+            self.model, data, option, None, self._camera(views[0].camera),
+            mujoco.mjtCatBit.mjCAT_ALL, scene,
+        )  # fmt: skip
+        for k, view in enumerate(views):
+            if k > 0:
+                mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
+            if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
+                _set_frustum(scene, view)
+            w = view.window
+            mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, self._context)
+            x += w.width
+        rgb = np.empty((height, x, 3), dtype=np.uint8)
+        raw = np.empty((height, x), dtype=np.float32)
+        mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), self._context)
+        rgb, raw = rgb[::-1], raw[::-1]  # GL rows are bottom first
+        near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
+        out, x = [], 0
+        for view in views:
+            w = view.window
+            rows = slice(height - w.height, height)
+            cols = slice(x, x + w.width)
+            depth = near * far / (far - raw[rows, cols].astype(np.float64) * (far - near))
+            out.append((rgb[rows, cols], depth))
+            x += w.width
+        return out
+
+    def close(self) -> None:
+        if self._gl is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._gl.free()
+            self._gl = self._context = self._scene = None
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_gl": None, "_context": None, "_scene": None, "_options": {},
+                "_cameras": {}}  # fmt: skip
+
+
+def _set_frustum(scene, view: View) -> None:
+    """The near-plane rectangle of the view's window (MuJoCo sets left and right from the
+    viewport's aspect ratio about ``frustum_center``, so pixels must be square)."""
+    (fu, fv), (cu, cv), w = view.focal, view.center, view.window
+    if abs(fu - fv) > SQUARE_PIXEL_TOL * fu:
+        raise ValueError(f"camera {view.camera}: windows need square pixels, focal is {fu}, {fv}")
+    for glcam in scene.camera:
+        near = glcam.frustum_near
+        right = w.left + w.width / w.density
+        bottom = w.top + w.height / w.density
+        glcam.frustum_center = ((w.left + right) / 2 - cu) / fu * near
+        glcam.frustum_top = (cv - w.top) / fv * near
+        glcam.frustum_bottom = (cv - bottom) / fv * near
