@@ -31,7 +31,6 @@ from envs.stopping import SignalStop, StopRequested
 from envs.trials import learn_from, run_trial
 from learners.persistence import CheckpointError
 from learners.som import VisuomotorSOM
-from models.arms import arm_kinematics
 
 #: The checkpoint unit is also the run's map file (``VisuomotorSOM.load`` reads it).
 MAP_FILE = CHECKPOINT_FILE
@@ -40,6 +39,10 @@ MAP_FILE = CHECKPOINT_FILE
 RESUMABLE = ("trials",)
 #: The held-out targets come from the env seeded with seed + EVAL_SEED_OFFSET, never trained on.
 EVAL_SEED_OFFSET = 10_000
+#: Targets the cameras see before training, whose pixel box spreads the map's w ...
+INIT_TARGETS = 200
+#: ... drawn with seed + this (neither a training nor a held-out seed).
+INIT_SEED_OFFSET = 30_000
 #: Weight of the newest trial in the running errors shown on the progress bar.
 RUNNING_WEIGHT = 0.02
 
@@ -76,14 +79,32 @@ class RunConfig:
 
 
 def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
-    """A fresh map for ``env``: w spread over the box of the workspace's image, every θ_r at
-    the robot's ready pose (the sensed point at the workspace centre, in view of both cameras).
+    """A fresh map for ``env`` from what a robot knows before it learns: w spread over the box
+    of the first INIT_TARGETS targets its cameras see, every θ_r at the taught pose (the MJCF
+    keyframe ``ready``), within the joint ranges. Neither the kinematics, an IK nor the camera
+    model is used.
 
-    The box comes from projecting workspace points drawn with a generator of the run's seed.
+    The targets are drawn with a generator of seed + INIT_SEED_OFFSET, and the env's own
+    generator is restored afterwards, so the training targets do not change.
     """
     base = env.unwrapped
-    rng = np.random.default_rng(config.seed)
-    pixels = base.stereo.project(base.spec_robot.workspace.sample(rng, 2000))
+    saved = base.np_random
+    base.np_random = np.random.default_rng(config.seed + INIT_SEED_OFFSET)
+    pixels = np.zeros((INIT_TARGETS, 4))
+    try:
+        for i in range(INIT_TARGETS):
+            base.reset()
+            pixels[i] = base.sensed_target()
+    finally:
+        base.np_random = saved
+    seen = pixels[np.all(np.isfinite(pixels), axis=1)]  # (n, 4)
+    if len(seen) < 2:
+        raise RuntimeError(
+            f"{config.env}: the cameras saw {len(seen)} of {INIT_TARGETS} targets; check the "
+            "scene's cameras (sensing needs the targets in view)"
+        )
+    joints = [base.model.joint(f"joint{i + 1}").qposadr[0] for i in range(base.joints)]
+    ready = base.model.key("ready").qpos[joints]
     return VisuomotorSOM(
         base.joint_lower,
         base.joint_upper,
@@ -92,10 +113,10 @@ def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
         protocol=config.protocol,
         refine=config.refine,
         t_max=config.trials,
-        rng=rng,
-        input_low=pixels.min(axis=0),
-        input_high=pixels.max(axis=0),
-        theta_init=arm_kinematics(base.robot, base.joints).ready,
+        rng=np.random.default_rng(config.seed),
+        input_low=seen.min(axis=0),
+        input_high=seen.max(axis=0),
+        theta_init=ready.copy(),
     )
 
 

@@ -132,3 +132,35 @@ def test_a_used_folder_is_refused_unless_forced_and_a_held_one_always(uninterrup
     finally:
         holder.close()
     Trainer(SMALL, tmp_path, force=True).close()  # released: usable again, and forced
+
+
+def test_the_map_learns_without_the_exact_model(monkeypatch, tmp_path):
+    """What a robot knows: joint ranges, the ``ready`` keyframe, images. Kinematics, IK and the
+    camera model raise if touched, and training (with rendered cameras) still runs."""
+    import models.arms
+    import models.puma560
+    import models.puma560.inverse
+    import models.puma560.kinematics
+    import models.riacs.kinematics
+    from envs.stereo import StereoRig
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the learner used the exact model")
+
+    for module, name in [(models.arms, "arm_kinematics"), (models.puma560, "wrist_ik"),
+                         (models.puma560.kinematics, "wrist_ik"),
+                         (models.puma560.kinematics, "wrist_center"),
+                         (models.puma560.inverse, "pose_ik"),
+                         (models.riacs.kinematics, "robot3dinv"),
+                         (StereoRig, "project"), (StereoRig, "project_with_depth")]:  # fmt: skip
+        monkeypatch.setattr(module, name, forbidden)
+    config = RunConfig(env="PumaReach-v0", sensing="render", trials=12, lattice=(3, 2, 2),
+                       eval_every=12, eval_trials=3, seed=1)  # fmt: skip
+    trainer = _train(config, tmp_path)
+    assert trainer.som.t > 0  # trials were learned from
+    ready = np.array([-1.2963, -2.2265, -0.2073])  # the keyframe in puma560.xml
+    fresh = Trainer(config, tmp_path / "fresh")
+    try:
+        np.testing.assert_array_equal(fresh.som.theta.reshape(-1, 3)[0], ready)
+    finally:
+        fresh.close()
