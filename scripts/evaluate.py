@@ -16,6 +16,7 @@ from pathlib import Path
 
 import cli
 import gymnasium as gym
+import train
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs import plots
@@ -38,6 +39,8 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
     p.add_argument("--sensing", choices=("render", "project"), help="default: the run's")
     p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
+    p.add_argument("--image-size", type=train.parse_image_size,
+                   help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip
     p.add_argument("--targets", type=cli.positive_int, default=1000)
     p.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
     p.add_argument("--seed", type=cli.nonnegative_int, default=DEFAULT_SEED)
@@ -63,8 +66,9 @@ def main(argv: list[str] | None = None) -> dict:
     env_id = args.env or run_config.get("env", "RiacsReach-v0")
     sensing = args.sensing or run_config.get("sensing", "project")
     control = args.control or run_config.get("control", "kinematic")
+    image_size = args.image_size or tuple(run_config.get("image_size", (240, 320)))
     out = args.out or (args.run / "eval" if args.run else Path("runs/eval"))
-    env = gym.make(env_id, sensing=sensing, control=control)
+    env = gym.make(env_id, sensing=sensing, control=control, image_size=image_size)
     specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
 
     rows, results = [], {}
@@ -82,12 +86,13 @@ def main(argv: list[str] | None = None) -> dict:
             name = f"som {controller.protocol}{refine}"
         results[name] = result
         rows.append({"controller": name, **result.summary()})
-    print(
-        f"{env_id}  sensing={sensing}  control={control}  {args.targets} targets, seed {args.seed}"
-    )
+    height, width = image_size
+    print(f"{env_id}  sensing={sensing} ({width}x{height})  control={control}  "
+          f"{args.targets} targets, seed {args.seed}")  # fmt: skip
     print(format_table(rows))
     out.mkdir(parents=True, exist_ok=True)
     summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
+               "image_size": [height, width],
                "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
     (out / "evaluation.json").write_text(json.dumps(summary, indent=1))
 

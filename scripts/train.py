@@ -57,6 +57,17 @@ def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str
     return out
 
 
+def parse_image_size(text: str) -> tuple[int, int]:
+    """'640x480' (width x height) -> (height, width)."""
+    try:
+        width, height = (int(n) for n in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--image-size wants WIDTHxHEIGHT pixels like 640x480, got {text!r}"
+        ) from None
+    return height, width
+
+
 def main(argv: list[str] | None = None) -> Path:
     d = RunConfig()
     p = cli.parser(__doc__)
@@ -74,6 +85,9 @@ def main(argv: list[str] | None = None) -> Path:
     )
     p.add_argument("--sensing", default=d.sensing, choices=("render", "project"))
     p.add_argument("--control", default=d.control, choices=("servo", "kinematic"))
+    height, width = d.image_size
+    p.add_argument("--image-size", type=parse_image_size, default=f"{width}x{height}",
+                   help="sensing images WIDTHxHEIGHT, e.g. 640x480")  # fmt: skip
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
     p.add_argument("--eval-every", type=cli.positive_int, default=d.eval_every, help="trials")
     p.add_argument("--eval-trials", type=cli.positive_int, default=d.eval_trials, help="targets")
@@ -99,7 +113,7 @@ def main(argv: list[str] | None = None) -> Path:
             config = RunConfig(
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
                 trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
-                protocol=args.protocol,
+                protocol=args.protocol, image_size=args.image_size,
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)

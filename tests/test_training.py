@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
+from envs import training
 from envs.checkpoint import read_unit
 from envs.runfolder import RunFolderError
 from envs.stopping import StopRequested
@@ -154,13 +155,14 @@ def test_the_map_learns_without_the_exact_model(monkeypatch, tmp_path):
                          (models.riacs.kinematics, "robot3dinv"),
                          (StereoRig, "project"), (StereoRig, "project_with_depth")]:  # fmt: skip
         monkeypatch.setattr(module, name, forbidden)
+    monkeypatch.setattr(training, "INIT_TARGETS", 20)  # fewer renders: a quicker test
     config = RunConfig(env="PumaReach-v0", sensing="render", trials=12, lattice=(3, 2, 2),
                        eval_every=12, eval_trials=3, seed=1)  # fmt: skip
-    trainer = _train(config, tmp_path)
-    assert trainer.som.t > 0  # trials were learned from
-    ready = np.array([-1.2963, -2.2265, -0.2073])  # the keyframe in puma560.xml
-    fresh = Trainer(config, tmp_path / "fresh")
+    trainer = Trainer(config, tmp_path)
     try:
-        np.testing.assert_array_equal(fresh.som.theta.reshape(-1, 3)[0], ready)
+        ready = np.array([-1.2963, -2.2265, -0.2073])  # the keyframe in puma560.xml
+        np.testing.assert_array_equal(trainer.som.theta.reshape(-1, 3), np.tile(ready, (12, 1)))
+        trainer.run()
     finally:
-        fresh.close()
+        trainer.close()
+    assert trainer.som.t > 0  # trials were learned from
