@@ -64,7 +64,7 @@ class Blob:
 def find_blob(rgb: np.ndarray, colour: MarkerColour, whole: bool = False) -> Blob | None:
     """The largest 8-connected region of ``colour`` in ``rgb`` (h, w, 3), or None if there is
     none of at least MIN_BLOB_PIXELS pixels. ``whole``: all regions of that colour together
-    (a marker cut in two by a thin link in front of it)."""
+    (a marker cut in two by a thin link in front of it), with their holes filled."""
     mask = colour.mask(rgb)
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     if count < 2:
@@ -74,12 +74,13 @@ def find_blob(rgb: np.ndarray, colour: MarkerColour, whole: bool = False) -> Blo
     if area < MIN_BLOB_PIXELS:
         return None
     height, width = mask.shape
-    if whole:
-        region = labels > 0
-        rows, cols = np.nonzero(region)
-        border = min(rows) == 0 or min(cols) == 0 or max(rows) == height - 1
-        border = border or max(cols) == width - 1
-        return Blob(region, len(rows), bool(border))
+    if whole:  # every region, holes (the specular highlight, unsaturated) filled
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        filled = np.zeros_like(mask)
+        cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+        region = filled > 0
+        border = region[0].any() or region[-1].any() or region[:, 0].any() or region[:, -1].any()
+        return Blob(region, int(region.sum()), bool(border))
     border = x == 0 or y == 0 or x + w >= width or y + h >= height
     return Blob(labels == best, int(area), bool(border))
 

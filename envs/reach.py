@@ -11,6 +11,7 @@ import numpy as np
 
 from envs import arguments
 from envs.composite import CompositeView
+from envs.foveated import FoveatedSensing
 from envs.markers import GREEN_EFFECTOR, RED_TARGET
 from envs.perturb import Perturbation, SceneEditor
 from envs.reward import GoalPoints, reward_terms, seen_flags
@@ -20,7 +21,7 @@ from envs.triangulation import camera_floats
 from envs.viewer import HumanViewer
 from models import load_model
 
-SENSING_MODES = ("render", "project")
+SENSING_MODES = ("render", "project", "foveated")
 CONTROL_MODES = ("servo", "kinematic")
 SUCCESS_THRESHOLD = 0.005  # m
 IMAGE_HEIGHT, IMAGE_WIDTH = 240, 320  # sensing images, pixels
@@ -123,7 +124,10 @@ class ReachEnv(gym.Env):
     - ``robot`` (``"riacs"``): ``"riacs"`` or ``"puma560"``.
     - ``joints`` (3): controlled joints (PUMA: 3 or 6; the others are held at ``home``).
     - ``sensing`` (``"render"``): ``"render"`` draws both cameras off-screen and finds the markers
-      by colour (OpenCV); ``"project"`` is the exact pinhole projection with the same cameras.
+      by colour (OpenCV); ``"project"`` is the exact pinhole projection with the same cameras;
+      ``"foveated"`` renders each camera only in a small window about where the marker is
+      expected (the target's pixels; the whole images when it is not there) at 4× the pixel
+      density, and reports pixels of the base image (``envs.foveated``).
     - ``control`` (``"servo"``): ``"servo"`` runs the position actuators until every joint is
       slower than 1e-3 rad/s for 0.02 s (at least 0.02 s, at most 2 s of simulated time);
       ``"kinematic"`` sets the joints.
@@ -205,6 +209,8 @@ class ReachEnv(gym.Env):
             (height, width),
         )
         self.perturbation = Perturbation()
+        self._fovea = FoveatedSensing(self.stereo) if sensing == "foveated" else None
+        self._target_radius = float(self.model.geom_size[self.model.geom("target").id][0])  # m
         self._view = CompositeView(self.model, height, width)
 
         self._make_spaces(normalize)
@@ -437,6 +443,11 @@ class ReachEnv(gym.Env):
     ) -> tuple[np.ndarray, np.ndarray]:
         if self.sensing == "render":
             return self.stereo.sense(self.data, colour, radius)
+        if self.sensing == "foveated":
+            if colour.is_target:  # whole images first, then windows where the target is
+                return self._fovea.sense(self.data, colour, self._target_radius)
+            # The marker is expected where the target is: that is where a reach aims.
+            return self._fovea.sense(self.data, colour, radius, self._detected_target)
         (u1, v1, u2, v2), (d1, d2) = self.stereo.project_point(point)
         u_max, v_max = self.image_width - 1, self.image_height - 1
         left = d1 > 0 and 0 <= u1 <= u_max and 0 <= v1 <= v_max

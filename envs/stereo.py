@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -70,14 +71,19 @@ class PinholeCamera:
         M = self.rotation.T * np.array([[1.0], [1.0], [-1.0]])  # rows x, y, -z: depth > 0 ahead
         return K @ np.hstack([M, -M @ self.position[:, None]])
 
+    @cached_property
+    def _pixel_projection(self) -> np.ndarray:
+        return self.projection_matrix()  # (3, 4)
+
     def project(self, points: np.ndarray) -> np.ndarray:
         """World points (N, 3) -> pixels (N, 2)."""
-        P = self.projection_matrix()
+        P = self._pixel_projection
         h = np.atleast_2d(np.asarray(points, dtype=float)) @ P[:, :3].T + P[:, 3]  # (N, 3)
         return h[:, :2] / h[:, 2:3]
 
-    def sphere_area(self, centres: np.ndarray, radius: float) -> np.ndarray:
-        """Area (px²) of the image of a sphere of ``radius`` (m) at each centre (N, 3), (N,).
+    def sphere_semi_axes(self, centres: np.ndarray, radius: float) -> np.ndarray:
+        """Semi-axes (N, 2) px (radial, across) of the image of a sphere of ``radius`` (m) at
+        each centre (N, 3).
 
         The image is an ellipse: with α the half-angle the sphere subtends and φ the off-axis
         angle of its centre, semi-axes sin α cos α / (cos²φ - sin²α) (radial) and
@@ -90,7 +96,11 @@ class PinholeCamera:
         spread = np.maximum(cos_phi**2 - sin_a**2, 1e-12)
         major = sin_a * np.sqrt(1.0 - sin_a**2) / spread
         minor = sin_a / np.sqrt(spread)
-        return np.pi * major * minor * self.focal[0] * self.focal[1]
+        return np.stack([major, minor], axis=-1) * np.sqrt(self.focal[0] * self.focal[1])
+
+    def sphere_area(self, centres: np.ndarray, radius: float) -> np.ndarray:
+        """Area (N,) px² of the image of a sphere of ``radius`` (m) at each centre (N, 3)."""
+        return np.pi * np.prod(self.sphere_semi_axes(centres, radius), axis=-1)
 
 
 class CameraPair:

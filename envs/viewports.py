@@ -199,5 +199,6 @@ def _set_frustum(scene, view: View) -> None:
         right = w.left + w.width / w.density
         bottom = w.top + w.height / w.density
         glcam.frustum_center = ((w.left + right) / 2 - cu) / fu * near
+        glcam.frustum_width = (right - w.left) / 2 / fu * near  # half-width, used when set
         glcam.frustum_top = (cv - w.top) / fv * near
         glcam.frustum_bottom = (cv - bottom) / fv * near

@@ -21,6 +21,7 @@ import train
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs import plots
 from envs.evaluation import evaluate
+from envs.reach import SENSING_MODES
 from envs.rendering import render_camera
 from envs.training import MAP_FILE, METRICS_FILE, Trainer
 from learners.som import VisuomotorSOM
@@ -37,7 +38,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--controller", help=f"instead of --run: {SPECS}")
     p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
     p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
-    p.add_argument("--sensing", choices=("render", "project"), help="default: the run's")
+    p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
     p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
     p.add_argument("--image-size", type=train.parse_image_size,
                    help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip

@@ -24,6 +24,7 @@ import cli
 from tqdm import tqdm
 
 import envs  # noqa: F401  (registers the envs)
+from envs.reach import SENSING_MODES
 from envs.stopping import SignalStop, StopRequested
 from envs.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
 
@@ -83,7 +84,7 @@ def main(argv: list[str] | None = None) -> Path:
         help="mrs: MRS loop with this project's additions; brause: Brause's own (coarse Θ_c, "
         "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
     )
-    p.add_argument("--sensing", default=d.sensing, choices=("render", "project"))
+    p.add_argument("--sensing", default=d.sensing, choices=SENSING_MODES)
     p.add_argument("--control", default=d.control, choices=("servo", "kinematic"))
     height, width = d.image_size
     p.add_argument("--image-size", type=parse_image_size, default=f"{width}x{height}",
