@@ -225,15 +225,16 @@ class StereoRig(CameraPair):
 
         Args:
             windows: per camera, the part of its image to render (default: all of it); pixels
-                are always reported in the base image's coordinates.
+                are always reported in the base image's coordinates. Windows leave out the
+                scene's static background (group 0, the floor): it lies behind the workspace,
+                so it can neither hide a marker nor change its outline, and drawing it costs
+                more than the rest of a small window.
         Returns:
             pixels (4,) of the sphere centre's image (NaN where not visible), visible (2,) bool.
         """
-        groups = (
-            (GROUP_SCENE, GROUP_TARGET)
-            if marker.is_target
-            else (GROUP_SCENE, GROUP_ROBOT, GROUP_MARKER)
-        )
+        groups = (GROUP_TARGET,) if marker.is_target else (GROUP_ROBOT, GROUP_MARKER)
+        if windows is None:  # whole images show the scene; windows skip its static background
+            groups = (GROUP_SCENE, *groups)
         views = self.views(windows)
         images = self._renderer.render(data, views, groups)
         if radius is None:

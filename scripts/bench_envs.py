@@ -37,6 +37,7 @@ from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
 ENV_IDS = {"riacs": "RiacsReach-v0", "puma560": "PumaReach-v0"}
 PEER_ID = "Reacher-v5"
 RENDER_GOAL_MS = 15.0  # ms per step with render sensing (issue 3)
+FOVEA_OFFSET = 0.01  # m, marker from target when timing foveated sensing (a fine move's error)
 MS_PER_S = 1e3
 
 
@@ -52,15 +53,45 @@ def time_steps(env: gym.Env, n_steps: int, seed: int) -> float:
 
 
 def time_sense(env_id: str, repeats: int, seed: int) -> dict[str, float]:
-    """Milliseconds for one ``stereo.sense`` call (both cameras rendered), per marker."""
-    env = gym.make(env_id, sensing="render", control="kinematic").unwrapped
+    """Milliseconds for one sensing of both cameras, per marker: whole 320×240 images
+    (``stereo.sense``), and foveated effector sensing with windows about the target's sensed
+    pixels, the arm placed so that its marker is FOVEA_OFFSET from the target (as after a
+    reach), measured on the same poses in the same run."""
+    import mujoco  # after envs chose the GL back-end
+
+    env = gym.make(env_id, sensing="foveated", control="kinematic").unwrapped
     env.reset(seed=seed)
-    out = {}
-    for name, colour in (("target", RED_TARGET), ("effector", GREEN_EFFECTOR)):
+    rng = np.random.default_rng(seed)
+    poses = []  # (joints, target) with the marker in both images
+    while len(poses) < repeats:
+        q = rng.uniform(env.joint_lower, env.joint_upper)
+        env.data.qpos[env._qpos_ids] = q
+        mujoco.mj_forward(env.model, env.data)
+        marker = env.data.site_xpos[env._site].copy()
+        offset = rng.normal(size=3)
+        target = marker + FOVEA_OFFSET * offset / np.linalg.norm(offset)
+        uv = env.stereo.project(np.stack([marker, target]))  # (2, 4)
+        inside = (uv[:, ::2] > 0) & (uv[:, ::2] < IMAGE_WIDTH - 1)
+        inside &= (uv[:, 1::2] > 0) & (uv[:, 1::2] < IMAGE_HEIGHT - 1)
+        if inside.all():
+            poses.append((q, target))
+    out = {"target": 0.0, "effector": 0.0, "effector_foveated": 0.0}
+    fallbacks = env._fovea.fallbacks
+    for q, target in poses:
+        env.data.qpos[env._qpos_ids] = q
+        env.data.mocap_pos[0] = target
+        mujoco.mj_forward(env.model, env.data)
         start = time.perf_counter()
-        for _ in range(repeats):
-            env.stereo.sense(env.data, colour)
-        out[name] = (time.perf_counter() - start) / repeats * MS_PER_S
+        expected, _ = env.stereo.sense(env.data, RED_TARGET)
+        middle = time.perf_counter()
+        env.stereo.sense(env.data, GREEN_EFFECTOR, env._marker_radius)
+        end = time.perf_counter()
+        env._fovea.sense(env.data, GREEN_EFFECTOR, env._marker_radius, expected)
+        out["effector_foveated"] += time.perf_counter() - end
+        out["target"] += middle - start
+        out["effector"] += end - middle
+    out = {k: v / repeats * MS_PER_S for k, v in out.items()}
+    out["foveated_fallbacks"] = env._fovea.fallbacks - fallbacks
     env.close()
     return out
 
@@ -203,7 +234,9 @@ def format_table(results: dict) -> str:
     for robot, ms in results["sense_ms"].items():
         lines.append(
             f"stereo.sense {robot} ({width}×{height}, 2 cameras): target {ms['target']:.2f} ms, "
-            f"effector {ms['effector']:.2f} ms per call"
+            f"effector {ms['effector']:.2f} ms per call; foveated effector "
+            f"{ms['effector_foveated']:.2f} ms ({ms['effector_foveated'] / ms['effector']:.2f}× "
+            f"whole images, {ms['foveated_fallbacks']} fell back to whole images)"
         )
     return "\n".join(lines)
 
@@ -217,7 +250,7 @@ def main(argv: list[str] | None = None) -> dict:
         "--peer-steps", type=cli.positive_int, default=5000, help="timed Reacher-v5 steps"
     )
     parser.add_argument(
-        "--sense-repeats", type=cli.positive_int, default=50, help="timed stereo.sense calls"
+        "--sense-repeats", type=cli.positive_int, default=50, help="timed sensing calls"
     )
     parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
     parser.add_argument(
