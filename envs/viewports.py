@@ -9,18 +9,12 @@ is nearer the camera.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from envs.rendering import (
-    RENDERING_HELP,
-    RenderingUnavailableError,
-    check_gl_allowed,
-    mark_gl_started,
-)
+from envs.rendering import SENSING_OFF_FLAGS, check_gl_allowed, gl_start_error, mark_gl_started
 
 #: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
 SQUARE_PIXEL_TOL = 1e-5
@@ -95,16 +89,13 @@ class ViewportRenderer:
             self._gl.make_current()
             self._context = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_100)
         except Exception as exc:  # the GL libraries raise many different types
-            backend = os.environ.get("MUJOCO_GL", "unset")
-            raise RenderingUnavailableError(
-                f"could not start MUJOCO_GL={backend}: {exc}. {RENDERING_HELP}"
-            ) from exc
+            raise gl_start_error(exc) from exc
         finally:
             g.offwidth, g.offheight, q.offsamples = saved
         mark_gl_started()
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
-        for flag in ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX"):
+        for flag in SENSING_OFF_FLAGS:
             self._scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
 
     def _option(self, groups: tuple[int, ...]):
