@@ -85,14 +85,17 @@ def find_blob(rgb: np.ndarray, colour: MarkerColour, whole: bool = False) -> Blo
     return Blob(labels == best, int(area), bool(border))
 
 
-def outline_edges(blob: Blob, depth: np.ndarray) -> np.ndarray:
+def outline_edges(blob: Blob, depth: np.ndarray, margin: float = 0.0) -> np.ndarray:
     """Points (m, 2) (column, row; fractional image pixels) on the blob's outline where the
     sphere's own edge is seen: between a blob pixel and a 4-neighbour outside the blob that is
-    farther from the camera (the background, or the robot behind the sphere). Edges against a
-    nearer neighbour (an occluder in front) and the image border are left out.
+    more than ``margin`` farther from the camera (the background, or the robot behind the
+    sphere). Edges against a nearer neighbour (an occluder in front), against a surface that
+    meets the sphere (a link passing through it, about as far as the sphere there) and the image
+    border are left out.
 
     Args:
         depth: (h, w) distance along the optical axis, m, of the same render.
+        margin: m; a fraction of the sphere's radius.
     """
     m, z = blob.mask, depth
     points = []
@@ -102,8 +105,8 @@ def outline_edges(blob: Blob, depth: np.ndarray) -> np.ndarray:
         a[axis], b[axis] = slice(None, -1), slice(1, None)
         a, b = tuple(a), tuple(b)
         # (first, second) neighbour pairs along the axis; the outside one must be farther.
-        out_second = m[a] & ~m[b] & (z[b] > z[a])
-        out_first = m[b] & ~m[a] & (z[a] > z[b])
+        out_second = m[a] & ~m[b] & (z[b] > z[a] + margin)
+        out_first = m[b] & ~m[a] & (z[a] > z[b] + margin)
         rows, cols = np.nonzero(out_second | out_first)
         step = (0.5, 0.0) if axis == 0 else (0.0, 0.5)
         points.append(np.stack([cols + step[1], rows + step[0]], axis=-1))

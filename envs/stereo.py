@@ -19,6 +19,10 @@ from envs.sphere_fit import CameraOutline, locate
 from envs.triangulation import camera_floats, triangulate_elementwise
 from envs.viewports import View, ViewportRenderer, Window
 
+#: An outline point's outside neighbour must be this many sphere radii farther than the sphere
+#: there: a link that passes through the marker meets it at about the same depth.
+OUTLINE_DEPTH_MARGIN = 0.25
+
 
 @dataclass(frozen=True)
 class PinholeCamera:
@@ -247,7 +251,7 @@ class StereoRig(CameraPair):
                     pixels[2 * k : 2 * k + 2] = found.uv
             return pixels, np.isfinite(pixels[::2])
         outlines = [
-            _outline(rgb, depth, marker, cam, view.window)
+            _outline(rgb, depth, marker, cam, view.window, radius)
             for (rgb, depth), cam, view in zip(images, self.cameras, views, strict=True)
         ]
         return locate(outlines, radius, self.triangulate)
@@ -257,13 +261,19 @@ class StereoRig(CameraPair):
 
 
 def _outline(
-    rgb: np.ndarray, depth: np.ndarray, marker: MarkerColour, camera: PinholeCamera, window
+    rgb: np.ndarray,
+    depth: np.ndarray,
+    marker: MarkerColour,
+    camera: PinholeCamera,
+    window: Window,
+    radius: float,
 ) -> CameraOutline | None:
-    """What one camera's view shows of the marker sphere, in base pixels (None: no blob)."""
+    """What one camera's view shows of the marker sphere (``radius`` m), in base pixels (None:
+    no blob)."""
     blob = find_blob(rgb, marker, whole=True)
     if blob is None:
         return None
-    edges = outline_edges(blob, depth)  # (m, 2) window (column, row)
+    edges = outline_edges(blob, depth, OUTLINE_DEPTH_MARGIN * radius)  # (m, 2) window px
     rows, cols = np.nonzero(blob.mask)
     uv = window.to_base(cols, rows)  # (n, 2)
     start = perspective_centre(uv.mean(axis=0), uv, camera.center, camera.focal)
