@@ -184,20 +184,10 @@ def gl_start_error(exc: Exception) -> RenderingUnavailableError:
     return RenderingUnavailableError(f"could not start MUJOCO_GL={backend}: {exc}. {_HELP}")
 
 
-def gl_start_error(exc: Exception) -> RenderingUnavailableError:
-    """The error to raise when an OpenGL context could not be made."""
-    backend = os.environ.get("MUJOCO_GL", "unset")
-    return RenderingUnavailableError(f"could not start MUJOCO_GL={backend}: {exc}. {_HELP}")
-
-
 def mark_gl_started() -> None:
     """Record that this process has an OpenGL context (see :func:`check_gl_allowed`)."""
     global _gl_started
     _gl_started = True
-
-
-#: Render flags the sensing cameras turn off (flat colours suffice; software GL is faster).
-SENSING_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION", "mjRND_SKYBOX")
 
 
 #: Render flags the sensing cameras turn off (flat colours suffice; software GL is faster).
