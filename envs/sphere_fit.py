@@ -26,7 +26,7 @@ TRIM_PX = 1.0
 #: blob covers at least 1 - MAX_HIDDEN of the area of the whole sphere's image at C.
 MIN_OUTLINE_POINTS = 8
 MAX_RMS_PX = 0.6
-MAX_HIDDEN = 0.7
+MAX_HIDDEN = 0.9
 
 
 @dataclass(frozen=True)

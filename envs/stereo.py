@@ -225,7 +225,7 @@ class StereoRig(CameraPair):
         A camera's sighting counts only when the fit is trustworthy: at least
         ``sphere_fit.MIN_OUTLINE_POINTS`` outline points within ``TRIM_PX`` of the fitted
         outline, RMS distance at most ``MAX_RMS_PX`` px, and the blob at least
-        ``1 - MAX_HIDDEN`` of the whole sphere's image area (at most half hidden).
+        ``1 - MAX_HIDDEN`` of the whole sphere's image area (at most 90 % hidden).
 
         Args:
             windows: per camera, the part of its image to render (default: all of it); pixels
