@@ -75,9 +75,9 @@ def run_trial(
     trial = Trial(
         target_px=base.sensed_target(),
         target_pos=info["target_pos"],
-        start_distance=info["distance"],
-        start_pixel_error=info["pixel_error"],
-        start_pos=info["effector_pos"],
+        start_distance=info.get("distance", np.nan),  # every ReachEnv reports these at reset
+        start_pixel_error=info.get("pixel_error", np.nan),
+        start_pos=info.get("effector_pos"),
     )
     controller.reset()
     if on_move is not None:
