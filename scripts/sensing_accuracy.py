@@ -1,15 +1,15 @@
 """Rendered marker sensing (whole images and foveated) against the exact projection, by the
 fraction of the marker that the robot hides.
 
-    python scripts/sensing_accuracy.py --poses 400 [--image-size 320x240] [--seed 0]
+    .venv/bin/python scripts/sensing_accuracy.py --poses 400 [--image-size 320x240] [--seed 0]
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
+import cli
 import gymnasium as gym
 import numpy as np
 import train
@@ -19,14 +19,13 @@ from envs.sensing_accuracy import measure, table
 
 
 def main(argv: list[str] | None = None) -> dict:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--poses", type=int, default=400)
-    p.add_argument("--image-size", type=train.parse_image_size, default="320x240")
-    p.add_argument("--seed", type=int, default=0)
+    p = cli.parser(__doc__)
+    p.add_argument("--poses", type=cli.positive_int, default=400, help="random poses per arm")
+    p.add_argument("--image-size", type=train.parse_image_size, default="320x240",
+                   help="sensing images WIDTHxHEIGHT")  # fmt: skip
+    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
     p.add_argument("--json", type=Path, help="also write the rows here")
     args = p.parse_args(argv)
-    if args.poses < 1:
-        p.error("--poses must be at least 1")
     results = {}
     for env_id in ("RiacsReach-v0", "PumaReach-v0"):
         env = gym.make(env_id, sensing="render", control="kinematic", image_size=args.image_size)
