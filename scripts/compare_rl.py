@@ -12,16 +12,6 @@ OUT add up), and from all of it OUT/table.md and OUT/<env>_<sensing>_<control>.p
 
 from __future__ import annotations
 
-# torch first, before anything renders: Mesa's llvmpipe (EGL/OSMesa) loads its LLVM when the
-# first frame is drawn, and triton (which torch imports) bundles another LLVM; building a model
-# after a render then segfaults in LLVM's global state. Importing torch (and torch._dynamo,
-# which loads triton) first makes triton's LLVM the one that initialises.
-try:
-    import torch
-    import torch._dynamo
-except ImportError as exc:  # pragma: no cover - depends on the installation
-    raise SystemExit(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'") from exc
-
 import json
 from pathlib import Path
 
@@ -32,6 +22,22 @@ from envs import rl_report
 from envs.rl_compare import METHODS, Curve, checkpoints, run_method
 
 TORCH_THREADS = 1  # the machine is shared: one core per run
+
+
+def import_torch_first():
+    """torch, imported before anything renders (so after parsing: ``--help`` needs no torch).
+
+    Mesa's llvmpipe (EGL/OSMesa) loads its LLVM when the first frame is drawn, and triton (which
+    torch imports) bundles another LLVM; building a model after a render then segfaults in LLVM's
+    global state. Importing torch (and torch._dynamo, which loads triton) first makes triton's
+    LLVM the one that initialises. ``import envs`` loads no GL, so this is early enough.
+    """
+    try:
+        import torch
+        import torch._dynamo
+    except ImportError as exc:
+        raise SystemExit(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'") from exc
+    return torch
 
 
 def main(argv: list[str] | None = None) -> list[Curve]:
@@ -55,7 +61,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     )
     p.add_argument("--out", type=Path, default=Path("runs/compare_rl"))
     args = p.parse_args(argv)
-    torch.set_num_threads(TORCH_THREADS)
+    import_torch_first().set_num_threads(TORCH_THREADS)
     args.out.mkdir(parents=True, exist_ok=True)
     points = checkpoints(args.budget, args.checkpoints)
     setting = {"sensing": args.sensing, "control": args.control}
