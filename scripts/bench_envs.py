@@ -15,8 +15,7 @@ with its ratio to Reacher-v5.
 
 Each row: construct the env (not timed), reset it (not timed: this also starts the renderers),
 then time ``--steps`` moves with random in-range commands drawn beforehand. The envs are stepped
-unwrapped (no TimeLimit or checker), the peer too. Goals of issue 3: kinematic + project at least
-as fast as Reacher-v5; render sensing of both 320×240 cameras within 15 ms a step.
+unwrapped (no TimeLimit or checker), the peer too.
 """
 
 from __future__ import annotations
@@ -36,7 +35,6 @@ from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
 
 ENV_IDS = {"riacs": "RiacsReach-v0", "puma560": "PumaReach-v0"}
 PEER_ID = "Reacher-v5"
-RENDER_GOAL_MS = 15.0  # ms per step with render sensing (issue 3)
 FOVEA_OFFSET = 0.01  # m, marker from target when timing foveated sensing (a fine move's error)
 MS_PER_S = 1e3
 
@@ -210,7 +208,6 @@ def run(steps: int, peer_steps: int, sense_repeats: int, seed: int) -> dict:
         "peer": {"env": PEER_ID, "steps": peer_steps, "steps_per_s": peer},
         "rows": rows,
         "sense_ms": sense,
-        "render_goal_ms": RENDER_GOAL_MS,
         "image": [IMAGE_WIDTH, IMAGE_HEIGHT],
         "machine": {"cpus": os.cpu_count(), "MUJOCO_GL": os.environ.get("MUJOCO_GL")},
     }
