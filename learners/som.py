@@ -58,6 +58,14 @@ Protocols. ``protocol="mrs"`` is everything above. ``protocol="brause"`` is Brau
     Kept from this project: commands and Θ_k clipped into the joint ranges, trials with
     |Δv| < ``min_dv`` skipped (the division in 3.10). ``rule``, ``averaging``, ``refine``,
     ``eps``, ``eps_out``, ``sigma_out`` and ``explore`` have no effect under this protocol.
+    Known weakness (measured on the PUMA, /work/notes/brause-diag.md): with Δθ = A_c(x − w_c),
+    (3.10) is A* = A_c(I + (e − Δv)Δv^T/|Δv|²), e = x − w_c, so A* maps into the range of A_c
+    and only the directions its own moves excite are corrected (median cond A_r 4 -> 26). While
+    A_r is still the random start, γ ≈ 1 with h = 1 over radius 2 copies the Newton estimate
+    (3.9) over whole patches, which can land in another arm configuration (seed 0: 36 neurons
+    by trial 100), where (3.9) then converges. Joint noise on the fine move (not in the paper)
+    keeps A_r conditioned; a smaller γ_i (open in the paper) avoided the flips but costs RIACS;
+    the defaults stay as above.
 
 Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range of Ā, so the
 Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine

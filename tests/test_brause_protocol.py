@@ -149,3 +149,21 @@ def test_a_clipped_fine_command_is_learned_as_sent():
     assert np.any(np.abs(theta1) == 3.0)  # clipped
     som.learn(x, theta0, x_i, theta1, x_f)
     np.testing.assert_allclose(som.A[2] @ (x_f - x_i), theta1 - theta0, atol=1e-13)
+
+
+def test_without_exploration_3_10_only_right_multiplies_a_c():
+    # The fine move is Δθ = A_c e, e = x − w_c, so (3.10) is A* = A_c (I + (e − Δv) Δv^T/|Δv|²):
+    # A* maps into the range of A_c, whatever is sensed. A direction of joint space that A_c
+    # misses (or, with an A_c J of the wrong sign, moves the wrong way) is never corrected by
+    # the protocol's own trials; this is why it needs well-excited A_c (see learners/som.py).
+    som = small_map(gamma=(1.0, 0.5), sigma=0.5)  # γ = 1 at t = 0: A_c := A*, winner only
+    som.A = np.array([np.outer([1.0, 2.0], [0.5, -1.0])] * 6)  # rank 1, range along (1, 2)
+    x, x_i, x_f = np.array([1.2, 0.1]), np.array([1.0, 0.3]), np.array([1.4, -0.7])
+    a_c, e = som.A[2].copy(), x - som.w[2]
+    theta0, theta1 = som.act(x), som.act(x, x_i)
+    som.learn(x, theta0, x_i, theta1, x_f)
+    d = x_f - x_i
+    np.testing.assert_allclose(som.A[2], a_c @ (np.eye(2) + np.outer(e - d, d) / (d @ d)))
+    across = np.array([2.0, -1.0]) / np.sqrt(5.0)  # orthogonal to the range of A_c
+    assert np.abs(across @ som.A[2]).max() < 1e-14
+    assert abs(across @ (som.theta[2] - theta0)) < 1e-14  # Θ* moves only along it too
