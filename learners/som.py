@@ -581,14 +581,10 @@ class VisuomotorSOM(Controller):
         u, v0, v1 = np.asarray(u, dtype=float), np.asarray(v0, dtype=float), np.asarray(v1, float)
         theta0, theta1 = np.asarray(theta0, dtype=float), np.asarray(theta1, dtype=float)
         fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
-        if fast_ok and v0.shape == (D,) == v1.shape:
+        shapes_ok = fast_ok and v0.shape == (D,) == v1.shape
+        if shapes_ok:
             self._check_trial(u, theta0, v0, theta1, v1)
-        if (
-            self.kernel == "numba"
-            and self.protocol == "mrs"
-            and fast_ok
-            and v0.shape == (D,) == v1.shape
-        ):
+        if shapes_ok and self.kernel == "numba" and self.protocol == "mrs":
             learned = self._learn_compiled(u, theta0, v0, theta1, v1)
             if learned is not None:
                 return learned  # else an input is not finite: the checks below say which
