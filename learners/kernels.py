@@ -32,14 +32,16 @@ from learners.winner_search import (
 )
 
 __all__ = [
-    "BLOCK", "available", "coarse", "fine", "learn", "refresh_blocks", "winner", "winner_pruned"
+    "BLOCK", "act_coarse", "available", "coarse", "fine", "learn", "refresh_blocks", "status",
+    "winner", "winner_pruned",
 ]  # fmt: skip
 
 
 #: Lattices of up to this many axes (a shorter shape is padded with leading 1s).
 MAX_AXES = 3
-#: What :func:`learn` did.
-LEARNED, NOT_FINITE, SMALL_DV = 0, 1, 2
+#: What the checks of the inputs found (:func:`status`), and what :func:`learn` did.
+OK, NOT_FINITE, OUTSIDE = 0, 1, 2
+LEARNED, SMALL_DV = OK, 3
 
 
 @_jit
@@ -75,6 +77,20 @@ def _sphere(s: int, r2: int, shape: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 @_jit
+def status(x: np.ndarray, box: np.ndarray) -> int:
+    """OK, NOT_FINITE (NaN or ±inf anywhere in x) or OUTSIDE (finite, and a component beyond
+    the box): |x − centre| · inv_half ≤ 1 per component, box = (centre, inv_half) (2, n), the
+    same test as ``guards.InputBox.inside``."""
+    outside = False
+    for i in range(len(x)):
+        if not np.isfinite(x[i]):
+            return NOT_FINITE
+        if not abs(x[i] - box[0, i]) * box[1, i] <= 1.0:
+            outside = True
+    return OUTSIDE if outside else OK
+
+
+@_jit
 def coarse(
     s: int,
     u: np.ndarray,
@@ -85,13 +101,15 @@ def coarse(
     table: np.ndarray,
     r2: int,
     shape: np.ndarray,
-) -> tuple[int, np.ndarray, np.ndarray]:
-    """Winner s (s < 0: search it), averaged output θ0 (J,) and Ā (J, D) with weights
-    table[d²] around s (the winner alone for r2 = 0)."""
+    out: np.ndarray,
+    abar: np.ndarray,
+) -> int:
+    """Winner s (s < 0: search it, plain scan), written into ``out`` the averaged output θ0
+    (J,) and into ``abar`` Ā (J, D), with weights table[d²] around s (the winner alone for
+    r2 = 0). Returns s."""
     if s < 0:
         s = winner(w, w2, u)
     J, D = A.shape[1], A.shape[2]
-    out, abar = np.zeros(J), np.zeros((J, D))
     if r2 == 0:
         for j in range(J):
             acc = 0.0
@@ -99,7 +117,9 @@ def coarse(
                 acc += A[s, j, d] * (u[d] - w[s, d])
                 abar[j, d] = A[s, j, d]
             out[j] = theta[s, j] + acc
-        return s, out, abar
+        return s
+    out[:] = 0.0
+    abar[:] = 0.0
     index, dist2 = _sphere(s, r2, shape)
     total = 0.0
     du = np.empty(D)
@@ -114,7 +134,46 @@ def coarse(
                 acc += A[r, j, d] * du[d]
                 abar[j, d] += g * A[r, j, d]
             out[j] += g * acc
-    return s, out / total, abar / total
+    for j in range(J):
+        out[j] /= total
+        for d in range(D):
+            abar[j, d] /= total
+    return s
+
+
+@_jit
+def act_coarse(
+    u: np.ndarray,
+    box: np.ndarray,
+    w: np.ndarray,
+    w2: np.ndarray,
+    theta: np.ndarray,
+    A: np.ndarray,
+    table: np.ndarray,
+    r2: int,
+    shape: np.ndarray,
+    joints: np.ndarray,
+    block_centre: np.ndarray,
+    block_radius: np.ndarray,
+    out_u: np.ndarray,
+    out_cmd: np.ndarray,
+    out_abar: np.ndarray,
+) -> int:
+    """The coarse move of ``act``: u checked against the input box ``box`` (2, D); the winner
+    (pruned search when there are blocks); the clipped command (J,) into ``out_cmd``, Ā into
+    ``out_abar`` and u into ``out_u``. Returns the winner, or −NOT_FINITE / −OUTSIDE with
+    nothing written. ``joints`` (2+, J): lower and upper joint limits in its first two rows."""
+    bad = status(u, box)
+    if bad != OK:
+        return -bad
+    s = -1
+    if len(block_radius) > 0:
+        s = winner_pruned(w, w2, u, shape, block_centre, block_radius)
+    s = coarse(s, u, w, w2, theta, A, table, r2, shape, out_cmd, out_abar)
+    for j in range(len(out_cmd)):
+        out_cmd[j] = min(max(out_cmd[j], joints[0, j]), joints[1, j])
+    out_u[:] = u
+    return s
 
 
 @_jit
@@ -128,12 +187,13 @@ def fine(
     refine: bool,
     min_dv: float,
     noise: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
-) -> np.ndarray:
-    """Next fine command clip(θ_k + Ā (u − v_k) + noise) (J,); with ``refine`` Ā first takes
-    the Broyden step Ā += (Δθ − Ā Δv) Δv^T / |Δv|² of the previous fine move, in place, when
-    |Δv| ≥ min_dv (Δθ = cmd − cmd_before, Δv = v − v_before)."""
+    joints: np.ndarray,
+) -> None:
+    """The next fine command clip(θ_k + Ā (u − v_k) + noise), in place: ``cmd`` (J,) becomes
+    it, ``cmd_before`` the previous command and ``v_before`` v. With ``refine`` Ā (J, D) first
+    takes the Broyden step Ā += (Δθ − Ā Δv) Δv^T / |Δv|² of the previous fine move, in place,
+    when |Δv| ≥ min_dv (Δθ = cmd − cmd_before, Δv = v − v_before). ``joints`` as in
+    :func:`act_coarse`; u and v are checked by the caller (:func:`status`)."""
     J, D = abar.shape
     if refine:
         dv = v - v_before
@@ -148,13 +208,24 @@ def fine(
                 res = (cmd[j] - cmd_before[j]) - res
                 for d in range(D):
                     abar[j, d] += res * (dv[d] / dv2)
-    out = np.empty(J)
     for j in range(J):
         acc = 0.0
         for d in range(D):
             acc += abar[j, d] * (u[d] - v[d])
-        out[j] = min(max(cmd[j] + acc + noise[j], lower[j]), upper[j])
-    return out
+        cmd_before[j] = cmd[j]
+        cmd[j] = min(max(cmd[j] + acc + noise[j], joints[0, j]), joints[1, j])
+    v_before[:] = v
+
+
+@_jit
+def _trial_status(
+    u: np.ndarray, theta0: np.ndarray, v0: np.ndarray, theta1: np.ndarray, v1: np.ndarray,
+    box: np.ndarray, joints: np.ndarray,
+) -> int:  # fmt: skip
+    """OUTSIDE if a finite one of the trial's arrays lies outside its box (input box ``box``,
+    joint box = rows 2 and 3 of ``joints``), else NOT_FINITE if one holds NaN/inf, else OK."""
+    found = max(status(u, box), status(v0, box), status(v1, box))  # OUTSIDE > NOT_FINITE > OK
+    return max(found, status(theta0, joints[2:]), status(theta1, joints[2:]))
 
 
 @_jit
@@ -171,8 +242,8 @@ def learn(
     w2: np.ndarray,
     theta: np.ndarray,
     A: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    box: np.ndarray,
+    joints: np.ndarray,
     eps: float,
     table_w: np.ndarray,
     eps_out: float,
@@ -186,26 +257,27 @@ def learn(
     both taken before the update;
     h = table_w[d²], h' = table_out[d²] (``Lattice.weights``: cut-off r² = len − 2).
 
-    With blocks (``block_radius`` not empty, see :func:`refresh_blocks`), each moved w_r
-    widens its block's radius to cover it (the centre stays), so the bounds stay valid.
+    The inputs are checked first: u, v0, v1 against the input box ``box`` (2, D), θ0, θ1
+    against the joint box, rows 2-3 of ``joints`` (4, J) = (lower, upper, centre, inv_half).
+    With blocks (``block_radius`` not empty, see :func:`refresh_blocks`) the winner search is
+    the pruned one, and each moved w_r widens its block's radius to cover it (the centre
+    stays), so the bounds stay valid.
 
-    Returns LEARNED, or, with nothing changed, NOT_FINITE (an input holds NaN/inf) or SMALL_DV
-    (|v1 − v0| < min_dv)."""
+    Returns LEARNED, or, with nothing changed, OUTSIDE (a finite input far outside its box),
+    NOT_FINITE (an input holds NaN/inf) or SMALL_DV (|v1 − v0| < min_dv)."""
     J, D = A.shape[1], A.shape[2]
-    check = 0.0
-    for d in range(D):
-        check += u[d] * 0.0 + v0[d] * 0.0 + v1[d] * 0.0
-    for j in range(J):
-        check += theta0[j] * 0.0 + theta1[j] * 0.0
-    if check != 0.0:  # x · 0 is NaN exactly for NaN and ±inf
-        return NOT_FINITE
+    found = _trial_status(u, theta0, v0, theta1, v1, box, joints)
+    if found != OK:
+        return found
     dv = v1 - v0
     dv2 = 0.0
     for d in range(D):
         dv2 += dv[d] * dv[d]
     if dv2 < min_dv * min_dv:
         return SMALL_DV
-    if s < 0:
+    if s < 0 and len(block_radius) > 0:
+        s = winner_pruned(w, w2, u, shape, block_centre, block_radius)
+    elif s < 0:
         s = winner(w, w2, u)
     theta_star, a_star = np.empty(J), np.empty((J, D))
     for j in range(J):
@@ -236,7 +308,7 @@ def learn(
         r, e = index[k], eps_out * table_out[dist2[k]]
         for j in range(J):
             x = theta[r, j] + e * (theta_star[j] - theta[r, j])
-            theta[r, j] = min(max(x, lower[j]), upper[j])
+            theta[r, j] = min(max(x, joints[0, j]), joints[1, j])
             for d in range(D):
                 A[r, j, d] += e * (a_star[j, d] - A[r, j, d])
     return LEARNED

@@ -88,6 +88,7 @@ from learners.guards import InputBox, check_finite
 from learners.lattice import Lattice
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.schedules import Continual, ErrorMonitor, Schedule, harmonic
+from learners.som_compiled import PRUNED_SEARCH_MIN, CompiledPath
 
 RULES = ("mrs", "brause")
 #: Trial protocols (see the module docstring): MRS with this project's additions, or Brause §3.
@@ -120,12 +121,6 @@ DEFAULT_T_MAX = 10_000
 DEFAULT_MIN_DV = 1e-3
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
-#: Lattices of at least this many neurons use the pruned winner search of the compiled path
-#: (bounding spheres of 4³-neuron blocks); below it a plain scan is as fast.
-PRUNED_SEARCH_MIN = 4096
-#: ... whose block bounds are recomputed every this many learned trials (in between, a moved
-#: neuron only widens its block's radius).
-BLOCK_REFRESH = 1000
 #: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
 #: threads, which on 2 shared cores made act_batch 4 times slower.
 _BATCH_BLOCK = 64
@@ -178,7 +173,7 @@ def _check_config(config: dict[str, Any]) -> None:
         raise ValueError(f"unknown bit generator in {config['rng_state']}")
 
 
-class VisuomotorSOM(Controller):
+class VisuomotorSOM(CompiledPath, Controller):
     """Kohonen lattice with joint outputs and local linear maps (see the module docstring).
 
     Args:
@@ -310,6 +305,7 @@ class VisuomotorSOM(Controller):
         self.skipped = {"not_visible": 0, "small_dv": 0}
         self.monitor = None if continual is None else ErrorMonitor(continual)
         self._version = 0  # counts changes of w, for the winner remembered from the coarse act
+        self._init_compiled()
         self._sync()
         self.reset()
 
@@ -382,14 +378,17 @@ class VisuomotorSOM(Controller):
 
     def params(self) -> tuple[float, float, float, float, float]:
         """ε, σ, ε', σ' and the exploration std at t = trials learned so far."""
-        if self._params_t != self.t:
-            t, T = self.t, self.t_max
+        t, T = self.t, self.t_max
+        if self.monitor is None and t > T:
+            t = T  # the floors: the same values from t_max on
+        if self._params_t != t:
             frac = min(t, T) / T if self.monitor is None else self.monitor.fraction(t, T)
             self._params = tuple(
                 s.at(frac)
                 for s in (self.eps, self.sigma, self.eps_out, self.sigma_out, self.explore)
             )
             self._params_t = t
+            self._tables = None  # the compiled path's weight tables of these widths
         return self._params
 
     def _winner(self, u: np.ndarray) -> int:
@@ -441,8 +440,9 @@ class VisuomotorSOM(Controller):
         if self.kernel == "numba":
             table = self._grid.weights(sigma_out)
             s = self._winner(u) if self._pruned else -1
-            s, theta, abar = kernels.coarse(
-                s, u, self._w, self._w2, self._th, self._A, table, r2, self._shape
+            theta, abar = np.empty(self.n_joints), np.empty((self.n_joints, self.input_dim))
+            s = kernels.coarse(
+                s, u, self._w, self._w2, self._th, self._A, table, r2, self._shape, theta, abar
             )
             self._last_winner = (u.tobytes(), self._version, s)
             return theta, abar
@@ -475,6 +475,10 @@ class VisuomotorSOM(Controller):
             ValueError: u or v of the wrong shape or not finite, or a fine move without a coarse
                 one since the last ``reset()``; the map and its memory are then unchanged.
         """
+        if self._compiled:
+            command = self._act_compiled(u, v, explore)
+            if command is not None:
+                return command  # else an input is wrong: the checks below say what
         if self.protocol == "brause":
             return self._act_brause(u, v)
         u = self._vector("u", u)
@@ -487,8 +491,6 @@ class VisuomotorSOM(Controller):
                 raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
             if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
                 self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
-            if self.kernel == "numba":
-                return self._fine_compiled(u, v, explore)
             if self.refine and self._v is not None:
                 dv = v - self._v
                 dv2 = float(dv @ dv)
@@ -511,18 +513,6 @@ class VisuomotorSOM(Controller):
         self._last_winner = (u.tobytes(), self._version, s)
         theta = self._th[s] if v is None else self._th[s] + self._A[s] @ (u - self._w[s])
         self._cmd = self._clip(theta)
-        return self._cmd.copy()
-
-    def _fine_compiled(self, u: np.ndarray, v: np.ndarray, explore: bool) -> np.ndarray:
-        """The fine move of ``act`` in one kernel call (same formulas, same noise draws)."""
-        std = self.params()[4]
-        noise = self.rng.normal(0.0, std, size=self.n_joints) if explore and std > 0 else None
-        refine = self.refine and self._v is not None
-        self._cmd, self._cmd_before, self._v = kernels.fine(
-            u, v, self._cmd, self._abar, self._v if refine else v,
-            self._cmd_before if refine else self._cmd, refine, self.min_dv,
-            self._zeros if noise is None else noise, self.lower, self.upper,
-        ), self._cmd, v.copy()  # fmt: skip
         return self._cmd.copy()
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
@@ -582,12 +572,14 @@ class VisuomotorSOM(Controller):
         theta0, theta1 = np.asarray(theta0, dtype=float), np.asarray(theta1, dtype=float)
         fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
         shapes_ok = fast_ok and v0.shape == (D,) == v1.shape
-        if shapes_ok:
-            self._check_trial(u, theta0, v0, theta1, v1)
-        if shapes_ok and self.kernel == "numba" and self.protocol == "mrs":
+        if shapes_ok and self._compiled:
+            if self.monitor is not None:  # it observes the trial before the kernel checks it
+                self._check_trial(u, theta0, v0, theta1, v1)
             learned = self._learn_compiled(u, theta0, v0, theta1, v1)
             if learned is not None:
-                return learned  # else an input is not finite: the checks below say which
+                return learned  # else an input is wrong: the checks below say what
+        if shapes_ok:
+            self._check_trial(u, theta0, v0, theta1, v1)
         if not (fast_ok and math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1)):
             check_pixels("u", u, D)  # the slow path, which names what is wrong
             check_pixels("theta0", theta0, J)
@@ -629,42 +621,6 @@ class VisuomotorSOM(Controller):
         self._update(s, u, theta_star, a_star, eps, sigma, eps_out, sigma_out)
         self.t += 1
         return True
-
-    def _learn_compiled(
-        self, u: np.ndarray, theta0: np.ndarray, v0: np.ndarray, theta1: np.ndarray, v1: np.ndarray
-    ) -> bool | None:
-        """``learn`` in one kernel call for inputs of the right shapes: True (learned), False
-        (skipped, |Δv| < min_dv), None (an input not finite; nothing changed)."""
-        if self.monitor is not None:  # the continual mode sees the trial first, as in learn
-            dv = v1 - v0
-            finite = math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1 + v0 @ v0 + v1 @ v1)
-            if not finite:
-                return None
-            if float(dv @ dv) >= self.min_dv * self.min_dv:
-                e = u - v0
-                if self.monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
-                    self._params_t = -1
-        memo = self._last_winner
-        s = memo[2] if memo[1] == self._version and memo[0] == u.tobytes() else -1
-        if s < 0 and self._pruned:
-            s = self._winner(u)
-        eps, sigma, eps_out, sigma_out, _ = self.params()
-        status = kernels.learn(
-            s, self.rule == "mrs", u, theta0, v0, theta1, v1, self.min_dv,
-            self._w, self._w2, self._th, self._A, self.lower, self.upper,
-            eps, self._grid.weights(sigma), eps_out, self._grid.weights(sigma_out), self._shape,
-            self._block_centre, self._block_radius,
-        )  # fmt: skip
-        if status == kernels.LEARNED:
-            if self._pruned and self.t % BLOCK_REFRESH == 0:  # tighten the grown radii
-                kernels.refresh_blocks(self._w, self._shape, self._block_centre, self._block_radius)
-            self._version += 1
-            self.t += 1
-            return True
-        if status == kernels.SMALL_DV:
-            self.skipped["small_dv"] += 1
-            return False
-        return None
 
     def _update(
         self,
@@ -758,7 +714,8 @@ class VisuomotorSOM(Controller):
             "input_low": self.input_low,
             "input_high": self.input_high,
         }
-        arrays.update({k: getattr(self, k) for k in self._MEMORY if getattr(self, k) is not None})
+        memory = {k: getattr(self, k) for k in self._MEMORY}  # copies: the kernels write in place
+        arrays.update({k: m.copy() for k, m in memory.items() if m is not None})
         return config, arrays
 
     @classmethod
