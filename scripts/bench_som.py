@@ -7,7 +7,9 @@ Rows of the table:
     each kernel (numba when installed, and the numpy reference);
   * MiniSom winner + update/s on a 2-D lattice with the same number of neurons and 4-D inputs.
     Map and peer take turns on blocks of ``--block`` trials, so a change in the load of the
-    shared machine hits both; a ratio is the median over the blocks of peer time / map time;
+    shared machine hits both; a round's ratio is the median over its blocks of peer time / map
+    time. ``--rounds`` rounds, each with a new map and a new MiniSom over the same inputs; the
+    ratio printed is the median over the rounds, with the lowest and highest round beside it;
   * act_batch targets/s: coarse commands for a block of targets at once;
   * a large lattice (``--big``, default 40×40×40): construction time, memory held (peak of
     numpy allocations while constructing and training, from tracemalloc) and trials/s.
@@ -35,6 +37,7 @@ IMAGE_SIZE = np.array([320.0, 240.0, 320.0, 240.0])  #: input box of the random 
 COARSE_ERROR_PX = 5.0  #: std of the simulated sensed position after the coarse move (px)
 FINE_ERROR_PX = 1.0  #: ... and after the fine move (px)
 MIB = 2**20  #: bytes
+PHASES = ("schedule", "after_t_max")
 
 
 def _inputs(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -99,6 +102,31 @@ def interleaved(som: VisuomotorSOM, peer: Peer, inputs, block: int) -> tuple[flo
     return sum(ours), sum(theirs), float(np.median(np.array(theirs) / np.array(ours)))
 
 
+def rounds(
+    kernel: str, lattice: tuple[int, ...], inputs, block: int, count: int, seed: int
+) -> dict[str, dict]:
+    """Per phase ("schedule": t = 0..t_max, "after_t_max": as many trials again): trials/s of
+    the map and updates/s of MiniSom over all ``count`` rounds, and each round's ratio."""
+    n, trials = math.prod(lattice), len(inputs[0])
+    phases: dict[str, dict] = {p: {"ours": 0.0, "theirs": 0.0, "ratios": []} for p in PHASES}
+    for _ in range(count):
+        som, peer = _som(lattice, trials, seed, kernel), Peer(n, inputs[0], seed)
+        for phase in PHASES:  # the second one continues the same map and peer, t > t_max
+            ours, theirs, ratio = interleaved(som, peer, inputs, block)
+            phases[phase]["ours"] += ours
+            phases[phase]["theirs"] += theirs
+            phases[phase]["ratios"].append(ratio)
+    return {
+        phase: {
+            "trials_per_s": count * trials / p["ours"],
+            "minisom_updates_per_s": count * trials / p["theirs"],
+            "ratio": float(np.median(p["ratios"])),
+            "round_ratios": p["ratios"],
+        }
+        for phase, p in phases.items()
+    }
+
+
 def big_lattice(lattice: tuple[int, ...], trials: int, seed: int, kernel: str) -> dict:
     """Construction seconds, peak MiB of numpy allocations, and trials per second of wall
     time and of this process's CPU time (the machine is shared) over a schedule."""
@@ -129,6 +157,9 @@ def main(argv: list[str] | None = None) -> dict:
         "--block", type=cli.positive_int, default=100, help="trials per turn of map and peer"
     )
     parser.add_argument(
+        "--rounds", type=cli.positive_int, default=5, help="new map and peer, same inputs"
+    )
+    parser.add_argument(
         "--batch", type=cli.positive_int, default=10_000, help="targets per act_batch call"
     )
     parser.add_argument("--lattice", type=cli.positive_int, nargs="+", default=[12, 7, 4])
@@ -147,18 +178,13 @@ def main(argv: list[str] | None = None) -> dict:
     rows = []
     for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):
         time_trials(_som(lattice, 3, args.seed, kernel), *(x[:3] for x in inputs))  # compiles
-        for phase in ("schedule", "after_t_max"):
-            if phase == "schedule":
-                som, peer = _som(lattice, args.trials, args.seed, kernel), Peer(n, inputs[0], 0)
-            ours, theirs, ratio = interleaved(som, peer, inputs, args.block)  # after: t > t_max
-            key = f"{kernel}_{phase}"
-            result[key] = {
-                "trials_per_s": args.trials / ours,
-                "minisom_updates_per_s": args.trials / theirs,
-                "ratio": ratio,
-            }
+        measured = rounds(kernel, lattice, inputs, args.block, args.rounds, args.seed)
+        for phase, figures in measured.items():
+            result[f"{kernel}_{phase}"] = figures
             when = "t = 0..t_max" if phase == "schedule" else "t > t_max"
-            rows.append((f"{kernel}: full trial, {when}", args.trials / ours, ratio))
+            rows.append((f"{kernel}: full trial, {when}", figures["trials_per_s"], figures))
+        som = _som(lattice, args.trials, args.seed, kernel)
+        time_trials(som, *inputs)
         U = np.resize(inputs[0], (args.batch, 4))
         start = time.perf_counter()
         som.act_batch(U)
@@ -167,10 +193,15 @@ def main(argv: list[str] | None = None) -> dict:
         )
     peer_shape = "x".join(map(str, result["minisom_shape"]))
     print(f"{n} neurons ({'x'.join(map(str, lattice))}), 4-D input; peer: MiniSom {peer_shape} "
-          "winner + update, same run, same blocks")  # fmt: skip
-    print(f"{'what':<44} {'per s':>12} {'/ MiniSom':>10}")
-    for what, rate, ratio in rows:
-        print(f"{what:<44} {rate:>12,.0f} {'' if ratio is None else f'{ratio:.2f}':>10}")
+          f"winner + update, same run, same blocks; {args.rounds} rounds of {args.trials} "
+          "trials per phase")  # fmt: skip
+    print(f"{'what':<40} {'per s':>10} {'/ MiniSom (median of rounds)':>29} {'rounds':>12}")
+    for what, rate, figures in rows:
+        ratio, spread = "", ""
+        if figures is not None:
+            low, high = min(figures["round_ratios"]), max(figures["round_ratios"])
+            ratio, spread = f"{figures['ratio']:.2f}", f"{low:.2f}-{high:.2f}"
+        print(f"{what:<40} {rate:>10,.0f} {ratio:>29} {spread:>12}")
     if args.big:
         big = tuple(args.big)
         for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):

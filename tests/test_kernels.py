@@ -10,10 +10,13 @@ the measured difference over 1,000 trials is ~1e-15.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from learners import kernels
+from learners.guards import INPUT_MARGIN, InputBox
 from learners.schedules import Continual
 from learners.som import VisuomotorSOM
 from models.riacs import LOWER, UPPER
@@ -108,3 +111,63 @@ def test_kernel_choice_is_checked():
         VisuomotorSOM(LOWER, UPPER, lattice=(2, 2, 2, 2), kernel="numba")
     assert VisuomotorSOM(LOWER, UPPER, lattice=(2, 2, 2, 2)).kernel == "numpy"
     assert VisuomotorSOM(LOWER, UPPER).kernel == "numba"
+
+
+U0, V0 = np.array([100.0, 80.0, 120.0, 90.0]), np.array([104.0, 77.0, 125.0, 93.0])  # px
+TH = np.array([0.5, 0.5, 1.0])  # rad
+#: One wrong call each, made after a coarse and a fine act(U0) (and a reset for "fine first").
+BAD = {
+    "coarse u NaN": lambda m: m.act([np.nan, 1.0, 2.0, 3.0]),
+    "coarse u far": lambda m: m.act([1e6, 1.0, 2.0, 3.0]),
+    "coarse u shape": lambda m: m.act(U0[:3]),
+    "fine v NaN": lambda m: m.act(U0, [1.0, np.inf, 2.0, 3.0], explore=True),
+    "fine v far": lambda m: m.act(U0, [1.0, 2.0, -1e7, 3.0], explore=True),
+    "fine u far": lambda m: m.act([1.0, 2.0, 3.0, 1e9], V0, explore=True),
+    "fine v shape": lambda m: m.act(U0, V0[:2], explore=True),
+    "fine first": lambda m: m.act(U0, V0, explore=True),
+    "learn u NaN": lambda m: m.learn([np.nan, 1.0, 2.0, 3.0], TH, V0, TH, U0),
+    "learn theta1 far": lambda m: m.learn(U0, TH, V0, [0.5, 200.0, 1.0], U0),
+    "learn v0 far, theta0 NaN": lambda m: m.learn(U0, [np.nan, 0, 0], [0, 0, 0, 1e8], TH, U0),
+    "learn v1 shape": lambda m: m.learn(U0, TH, V0, TH, U0[:3]),
+}
+
+
+def _snapshot(som: VisuomotorSOM) -> list:
+    config, arrays = som.state()  # w, θ, A, fine-move memory, t, skip counts, generator state
+    return [json.dumps(config, sort_keys=True), {k: a.tolist() for k, a in arrays.items()}]
+
+
+@pytest.mark.parametrize("call", BAD.values(), ids=BAD.keys())
+def test_bad_input_is_refused_alike_by_both_paths_before_anything_changes(call):
+    """The compiled path checks inside its kernels; the error (type and message) must be the
+    reference path's, and nothing may change: arrays, memory, counters, the generator."""
+    errors = []
+    for kernel in ("numba", "numpy"):
+        som = VisuomotorSOM(LOWER, UPPER, t_max=50, rng=1, input_high=IMAGE, kernel=kernel)
+        for u, v0, v1 in zip(*inputs(20), strict=True):
+            som.reset()
+            theta0, theta1 = som.act(u), som.act(u, v0, explore=True)
+            som.learn(u, theta0, v0, theta1, v1)
+        som.act(U0)
+        som.act(U0, V0, explore=True)  # memory of a fine move, for the refine step
+        if call is BAD["fine first"]:
+            som.reset()
+        before = _snapshot(som)
+        with pytest.raises(ValueError) as error:
+            call(som)
+        assert _snapshot(som) == before
+        errors.append(str(error.value))
+    assert errors[0] == errors[1]
+
+
+def test_the_kernels_box_test_is_the_guards():
+    """kernels.status against guards.InputBox on points spread around the margin's edges."""
+    box = InputBox(np.zeros(4), IMAGE, "input box")
+    packed = np.stack((box.centre, box.inv_half))
+    rng = np.random.default_rng(2)
+    edge = box.centre + (box.high - box.low) * (INPUT_MARGIN + 0.5)  # the outermost accepted
+    points = edge * (1.0 + rng.normal(0.0, 1e-15, size=(2000, 4)) * rng.integers(0, 2, (2000, 4)))
+    points = np.r_[points, rng.uniform(-20.0, 20.0, size=(2000, 4)) * IMAGE]
+    for x in points:
+        assert (kernels.status(x, packed) == kernels.OK) == box.inside(x)
+        assert kernels.status(np.r_[x[:3], np.nan], packed) == kernels.NOT_FINITE
