@@ -1,6 +1,8 @@
 """Figures of a sweep: held-out error after each move against the lattice size, log-log, one line
 per group of cells that differ only in lattice and seed (arm, rule, protocol, ...), each with
-its fitted slope, and Brause's e^LA(n) = C·n^b (5.8) for reference."""
+its fitted slope, and for reference Brause's e^LA(n) = C·n^b (5.8) and his optimal resolution
+(§6.2: n = 39.6 neurons per axis, Cartesian e^MAX = 0.201 mm with equal resolutions, 0.164 mm
+with the optimal ones, for 1.9 MB), both for the PUMA."""
 
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ import numpy as np
 
 from envs.plots import MOVE_NAMES
 from models.puma560.brause import PAPER_B, PAPER_C, fit_power_law
+from models.puma560.resolution import PUBLISHED
 
 #: Columns that do not separate groups: the x axis, the seeds, and per-cell results.
 _NOT_GROUPING = {
@@ -57,8 +60,8 @@ def fit_by_group(rows: list[dict[str, Any]], move: int) -> dict[str, dict[str, A
 
 def error_vs_neurons(rows: list[dict[str, Any]], path: Path) -> Path:
     """One panel per move: mean error (mm, all held-out trials, mean over seeds) against
-    neurons per axis n = N^(1/3), log-log, with fitted slopes, and Brause's e^LA(n) (rad, at
-    his point P; right axis) for the slope."""
+    neurons per axis n = N^(1/3), log-log, with fitted slopes, Brause's e^LA(n) (rad, at his
+    point P; right axis) for the slope, and his optimal resolution (n, e^MAX in mm)."""
     moves = max(len(row["mean_mm"]) for row in rows)
     fig, axes = plt.subplots(1, moves, figsize=(4.6 * moves, 4.2), squeeze=False)
     for move, ax in enumerate(axes[0]):
@@ -68,6 +71,10 @@ def error_vs_neurons(rows: list[dict[str, Any]], path: Path) -> Path:
             )
             seeds = [(r["n_per_axis"], r["mean_mm"][move]) for r in groups(rows)[label]]
             ax.loglog(*zip(*seeds, strict=True), ".", color=line[0].get_color(), alpha=0.4)
+        optimum = PUBLISHED["n"], (PUBLISHED["e_equal_mm"], PUBLISHED["e_opt_mm"])
+        ax.loglog([optimum[0]] * 2, optimum[1], "k*", ms=7,
+                  label=f"Brause §6.2 optimum: n = {optimum[0]},\ne^MAX = {optimum[1][0]} / "
+                  f"{optimum[1][1]} mm (equal / optimal bits)")  # fmt: skip
         n = np.geomspace(min(r["n_per_axis"] for r in rows), max(r["n_per_axis"] for r in rows))
         twin = ax.twinx()  # rad, as many decades per inch as the mm axis: slopes compare
         brause = PAPER_C * n**PAPER_B
@@ -76,13 +83,13 @@ def error_vs_neurons(rows: list[dict[str, Any]], path: Path) -> Path:
         shift = np.sqrt(brause[0] * brause[-1] / (low * high))
         twin.set_ylim(low * shift, high * shift)
         twin.set_ylabel("Brause e^LA (rad)", fontsize=8)
-        twin.legend(loc="upper right", fontsize=7)
         ticks = sorted({round(r["n_per_axis"], 2) for r in rows})
         ax.set_xticks(ticks, [f"{t:g}" for t in ticks], fontsize=7)
         ax.minorticks_off()
         ax.set_xlabel("neurons per axis n = N^(1/3)")
         ax.set_ylabel(f"mean error after {MOVE_NAMES[move]} move (mm)")
-        ax.legend(loc="lower left", fontsize=7)
+        handles = [h for a in (ax, twin) for h in a.get_legend_handles_labels()[0]]
+        ax.legend(handles=handles, loc="lower left", fontsize=6)
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
