@@ -7,6 +7,8 @@ from __future__ import annotations
 import fcntl
 import json
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from learners.persistence import CheckpointError, write_atomic
@@ -30,26 +32,7 @@ class RunFolder:
     def __init__(self, out: str | os.PathLike) -> None:
         self.path = Path(out)
         self.path.mkdir(parents=True, exist_ok=True)
-        lock = self.path / LOCK_FILE
-        while True:
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
-                os.close(fd)
-                raise RunFolderError(
-                    f"{self.path} is in use by process {holder} (lock {lock}); wait for it to "
-                    "finish or stop it, or write to another --out"
-                ) from None
-            # The holder we waited on may have removed the lock file meanwhile: lock the file
-            # that is there now, not an orphan.
-            if lock.exists() and os.stat(lock).st_ino == os.fstat(fd).st_ino:
-                break
-            os.close(fd)
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
-        self._fd: int | None = fd
+        self._fd: int | None = take_lock(self.path / LOCK_FILE, wait=False)
         for tmp in self.path.glob(".*.tmp"):  # left by saves that were killed
             tmp.unlink(missing_ok=True)
 
@@ -67,9 +50,55 @@ class RunFolder:
 
     def release(self) -> None:
         if self._fd is not None:
-            (self.path / LOCK_FILE).unlink(missing_ok=True)
-            os.close(self._fd)
+            release_lock(self.path / LOCK_FILE, self._fd)
             self._fd = None
+
+
+def take_lock(lock: Path, wait: bool) -> int:
+    """Lock the file ``lock`` (created if missing) for this process and write its PID into it;
+    returns the descriptor that holds the lock (``fcntl.flock``: released by the kernel when
+    the process dies).
+
+    Args:
+        wait: block while another process holds it; else raise.
+    Raises:
+        RunFolderError: another live process holds it and not ``wait`` (names its PID).
+    """
+    while True:
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise RunFolderError(
+                f"{lock.parent} is in use by process {holder} (lock {lock}); wait for it to "
+                "finish or stop it, or write to another --out"
+            ) from None
+        # The holder we waited on may have removed the lock file meanwhile: lock the file
+        # that is there now, not an orphan.
+        if lock.exists() and os.stat(lock).st_ino == os.fstat(fd).st_ino:
+            break
+        os.close(fd)
+    os.ftruncate(fd, 0)
+    os.write(fd, f"{os.getpid()}\n".encode())
+    return fd
+
+
+def release_lock(lock: Path, fd: int) -> None:
+    """Remove ``lock`` and release it (``fd`` from :func:`take_lock`)."""
+    lock.unlink(missing_ok=True)
+    os.close(fd)
+
+
+@contextmanager
+def locked(lock: Path) -> Iterator[None]:
+    """Hold ``lock`` for the ``with`` block, waiting while another process holds it."""
+    fd = take_lock(lock, wait=True)
+    try:
+        yield
+    finally:
+        release_lock(lock, fd)
 
 
 def truncate_metrics(path: Path, rows: int) -> None:

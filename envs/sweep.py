@@ -12,6 +12,10 @@ any sweep that contains it:
     progress.json                          last checkpointed trial (for progress displays)
     cell.json                              the cell's results row, written last (= finished)
 
+and ``OUT/cells/<name>.lock``, held while a process works on the cell: a second sweep on the
+same OUT, or a task Ray retries while the first attempt still runs, waits for it and then
+finds the cell finished (or resumes it from its checkpoint if the first attempt died).
+
 Results rows count all held-out trials: a trial that stopped because a marker was not seen
 keeps the distance where it stopped in every later column.
 """
@@ -32,11 +36,13 @@ from typing import Any
 import numpy as np
 
 from envs.evaluation import evaluate
+from envs.runfolder import locked
 from envs.training import EVAL_SEED_OFFSET, RunConfig, Trainer
 from learners.persistence import CheckpointError, write_atomic
 
 ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0"}
 CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
+LOCK_SUFFIX = ".lock"
 #: The axes shown in a cell's folder name (the hash covers everything else).
 NAME_AXES = ("robot", "lattice", "rule", "protocol", "refine", "sensing", "control", "seed")
 
@@ -123,9 +129,16 @@ def _write_json(path: Path, data: Any) -> None:
 def run_cell(config: RunConfig, folder: Path, checkpoint_every: int = 1000) -> dict[str, Any]:
     """Train (or resume) one cell, evaluate it on the held-out targets, write cell.json.
 
-    Returns the cell's results row. A finished cell is returned as it is.
+    Returns the cell's results row. A finished cell is returned as it is. Waits while another
+    process works on the same cell (its lock, ``<folder>.lock``).
     """
     folder = Path(folder)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    with locked(folder.with_name(folder.name + LOCK_SUFFIX)):
+        return _run_cell(config, folder, checkpoint_every)
+
+
+def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[str, Any]:
     if (folder / CELL_FILE).is_file():
         return json.loads((folder / CELL_FILE).read_text())
     start = time.perf_counter()

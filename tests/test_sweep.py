@@ -1,23 +1,29 @@
-"""Sweeps: grid expansion and all-trials-counted errors; on a local Ray instance, a 2-cell sweep
-gives the same table as running the cells directly, finished cells are skipped, and a worker
-killed mid-cell (SIGKILL) is retried and resumes to the result of an unbroken sweep."""
+"""Sweeps: grid expansion and all-trials-counted errors; two processes on one cell take turns
+(the cell lock); on a local Ray instance, a 2-cell sweep gives the same table as running the
+cells directly, finished cells are skipped, and a worker killed mid-cell (SIGKILL) is retried
+and resumes to the result of an unbroken sweep."""
 
 from __future__ import annotations
 
 import json
 import os
 import signal
+import subprocess
+import sys
 import threading
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
+from envs.runfolder import release_lock, take_lock
 from envs.sweep import (
     ATTEMPTS_FILE,
     CELL_FILE,
+    LOCK_SUFFIX,
     PROGRESS_FILE,
     cell_name,
     errors_all_counted,
@@ -62,6 +68,49 @@ def test_stopped_trials_keep_their_last_distance():
     np.testing.assert_array_equal(
         errors_all_counted(d), [[3.0, 2.0, 1.0], [5.0, 5.0, 5.0], [4.0, 2.0, 2.0]]
     )
+
+
+#: A process that runs one cell and prints its row: run_cell(RunConfig(**argv[1]), argv[2]).
+RUN_CELL = """
+import json, sys
+from pathlib import Path
+import envs
+from envs.sweep import run_cell
+from envs.training import RunConfig
+print(json.dumps(run_cell(RunConfig(**json.loads(sys.argv[1])), Path(sys.argv[2]), 100)))
+"""
+
+
+def _blocked_on(path: Path) -> int:
+    """How many processes wait for the flock on ``path`` (/proc/locks: "->" lines)."""
+    inode = f":{os.stat(path).st_ino} "
+    lines = Path("/proc/locks").read_text().splitlines()
+    return sum(1 for line in lines if "->" in line and "FLOCK" in line and inode in line)
+
+
+def test_two_processes_on_one_cell_take_turns(tmp_path):
+    """Two writers of one cell (two sweeps on one OUT, or a retry while the first attempt still
+    runs): each waits for the cell's lock; one trains, the other finds the finished cell."""
+    config = expand({**GRID, "lattice": 3, "trials": 300, "eval_trials": 10})[0]
+    folder = tmp_path / "cells" / cell_name(config)
+    folder.parent.mkdir(parents=True)
+    lock = folder.with_name(folder.name + LOCK_SUFFIX)
+    held = take_lock(lock, wait=False)  # a third writer, holding the cell while both start
+    command = [sys.executable, "-c", RUN_CELL, json.dumps(asdict(config)), str(folder)]
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    writers = [subprocess.Popen(command, stdout=subprocess.PIPE, env=env) for _ in range(2)]
+    deadline = time.monotonic() + TIMEOUT_S
+    while _blocked_on(lock) < 2 and time.monotonic() < deadline:
+        assert all(w.poll() is None for w in writers), "a writer did not wait for the lock"
+        time.sleep(0.05)
+    assert _blocked_on(lock) == 2 and not folder.exists()  # both wait, nothing written yet
+    release_lock(lock, held)
+    rows = [json.loads(w.communicate(timeout=TIMEOUT_S)[0]) for w in writers]
+    assert all(w.returncode == 0 for w in writers)
+    assert rows[0] == rows[1]  # the second read the first's cell.json
+    attempts = [json.loads(r) for r in (folder / ATTEMPTS_FILE).read_text().splitlines()]
+    assert len(attempts) == 1 and attempts[0]["pid"] in {w.pid for w in writers}
+    assert attempts[0]["start_trial"] == 0 and rows[0]["learned_trials"] > 0
 
 
 # ----------------------------------------------------------------------------- on Ray
