@@ -1,15 +1,20 @@
 """Sweeps: grid expansion and all-trials-counted errors; two processes on one cell take turns
 (the cell lock); on a local Ray instance, a 2-cell sweep gives the same table as running the
 cells directly, finished cells are skipped, and a worker killed mid-cell (SIGKILL) is retried
-and resumes to the result of an unbroken sweep."""
+and resumes to the result of an unbroken sweep; ``--address`` runs the same sweep on a Ray head
+started by ``ray start`` in its own process."""
 
 from __future__ import annotations
 
 import json
 import os
+import secrets
+import shutil
 import signal
+import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from dataclasses import asdict, replace
@@ -36,6 +41,7 @@ GRID = {"robot": "riacs", "lattice": [3, "4x3x2"], "trials": 1200, "eval_trials"
 GRID.update({"eval_every": 400})
 CHECKPOINT_EVERY = 100  # trials
 TIMEOUT_S = 300.0
+SWEEP_SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "sweep.py"
 VOLATILE = {"seconds_last_attempt"}  # wall time differs between runs
 
 
@@ -196,3 +202,56 @@ def test_worker_killed_mid_cell_is_retried_and_resumes_to_the_unbroken_result(un
 def test_configs_differ_only_where_the_grid_says():
     a, b = expand(GRID)
     assert replace(a, lattice=b.lattice) == b
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def test_address_runs_the_sweep_on_a_ray_head_of_its_own(unbroken, tmp_path):
+    """``scripts/sweep.py --address``: a head started by ``ray start --head`` as a separate
+    process (token authentication with a fresh token, given to head and driver), the sweep
+    in another process; the rows equal the local sweep's, and every cell ran in a worker of
+    that head (its worker logs name the pid of the cell's attempt). The head is stopped after."""
+    rows = unbroken[1]
+    ray_cli = shutil.which("ray", path=str(Path(sys.executable).parent)) or shutil.which("ray")
+    assert ray_cli, "ray is importable but its command-line tool is not on the path"
+    port, temp = _free_port(), Path(tempfile.mkdtemp(prefix="ray", dir="/tmp"))  # short paths
+    env = {**os.environ, "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(32)}
+    env.update({"RAY_USAGE_STATS_ENABLED": "0", "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")})
+    head = subprocess.Popen(
+        [ray_cli, "start", "--head", "--block", f"--port={port}", "--num-cpus=2",
+         "--include-dashboard=false", "--disable-usage-stats", f"--temp-dir={temp}"],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + TIMEOUT_S
+        while not (temp / "ray_current_cluster").exists() and time.monotonic() < deadline:
+            assert head.poll() is None, head.stderr.read().decode()  # the head stopped
+            time.sleep(0.1)
+        grid = [f"--grid={k}={','.join(map(str, v if isinstance(v, list) else [v]))}"
+                for k, v in GRID.items()]  # fmt: skip
+        driver = subprocess.run(
+            [sys.executable, str(SWEEP_SCRIPT), *grid, f"--out={tmp_path}",
+             f"--address=127.0.0.1:{port}", f"--checkpoint-every={CHECKPOINT_EVERY}"],
+            env=env, capture_output=True, text=True, timeout=TIMEOUT_S,
+        )  # fmt: skip
+        assert driver.returncode == 0, driver.stdout + driver.stderr
+        table = json.loads((tmp_path / "results.json").read_text())
+        assert all(_same(a, b) for a, b in zip(table, rows, strict=True))
+        for row in table:
+            attempts = (tmp_path / "cells" / row["cell"] / ATTEMPTS_FILE).read_text()
+            pid = json.loads(attempts.splitlines()[0])["pid"]
+            assert list(temp.glob(f"session_*/logs/worker-*-{pid}.out")), f"{pid} not the head's"
+    finally:
+        head.terminate()  # ray start --block stops the head's processes on SIGTERM
+        try:
+            head.wait(TIMEOUT_S)
+        finally:
+            try:
+                os.killpg(head.pid, signal.SIGKILL)  # whatever of its group is left
+            except ProcessLookupError:
+                pass
+            shutil.rmtree(temp, ignore_errors=True)
