@@ -12,8 +12,11 @@ are the same operations in the same order, so w matches the numpy path bit for b
 over neurons are added in another order, which changes θ0 and Ā by a few units in the last
 place (``tests/test_kernels.py`` bounds the difference over 1,000 trials).
 
-numba is optional (extra ``fast``); :func:`available` says whether it imports. The winner
-search lives in ``learners/winner_search.py``.
+:func:`act_coarse` and :func:`learn` first test their inputs with :func:`status` (finite, and
+inside the input box and joint ranges: the tests of ``learners/guards.py``) and return a status
+with nothing changed when one fails; ``learners/som_compiled.py`` then hands the call to the
+checked path, which raises the error. numba is optional (extra ``fast``); :func:`available`
+says whether it imports. The winner search lives in ``learners/winner_search.py``.
 """
 
 from __future__ import annotations
