@@ -36,7 +36,8 @@ def inputs(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarray]:
     """A map trained on ``trials`` trials (t_max = 2/3 of them, so both phases count), and
-    every command it gave, (trials, 3, J): coarse, fine, second fine."""
+    every command it gave, (trials, 4, J): coarse, fine, second fine, and a fine move towards
+    another target (Ā of its winner)."""
     som = VisuomotorSOM(
         LOWER, UPPER, t_max=2 * trials // 3, rng=3, input_high=IMAGE, kernel=kernel, **kw
     )
@@ -45,7 +46,7 @@ def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarra
         som.reset()
         theta0 = som.act(u)
         theta1 = som.act(u, v0, explore=True)
-        commands.append([theta0, theta1, som.act(u, v1)])
+        commands.append([theta0, theta1, som.act(u, v1), som.act(u + 1.0, v1)])  # new target
         som.learn(u, theta0, v0, theta1, v1)
     return som, np.array(commands)
 
@@ -56,6 +57,7 @@ def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarra
         {},
         {"rule": "brause"},
         {"averaging": "winner"},
+        {"refine": False},
         {"lattice": (17, 9)},
         {"lattice": (5, 4, 3)},
         {"protocol": "brause"},  # the compiled path steps aside: Brause's loop is numpy only
