@@ -33,7 +33,7 @@ class InputBox:
 
     def inside(self, a: np.ndarray) -> bool:
         """Whether every component of ``a`` (..., n) lies in the box (False for NaN)."""
-        return bool(np.max(np.abs(a - self.centre) * self.inv_half, initial=0.0) <= 1.0)
+        return bool((np.abs(a - self.centre) * self.inv_half).max(initial=0.0) <= 1.0)
 
     def check(self, name: str, a: np.ndarray) -> None:
         """ValueError naming ``a`` (or its first bad row) if it is outside the box."""
