@@ -98,7 +98,6 @@ def coarse(
     s: int,
     u: np.ndarray,
     w: np.ndarray,
-    w2: np.ndarray,
     theta: np.ndarray,
     A: np.ndarray,
     table: np.ndarray,
@@ -106,12 +105,9 @@ def coarse(
     shape: np.ndarray,
     out: np.ndarray,
     abar: np.ndarray,
-) -> int:
-    """Winner s (s < 0: search it, plain scan), written into ``out`` the averaged output θ0
-    (J,) and into ``abar`` Ā (J, D), with weights table[d²] around s (the winner alone for
-    r2 = 0). Returns s."""
-    if s < 0:
-        s = winner(w, w2, u)
+) -> None:
+    """Around winner s, the averaged output θ0 (J,) written into ``out`` and Ā (J, D) into
+    ``abar``, with weights table[d²] (the winner alone for r2 = 0)."""
     J, D = A.shape[1], A.shape[2]
     if r2 == 0:
         for j in range(J):
@@ -120,7 +116,7 @@ def coarse(
                 acc += A[s, j, d] * (u[d] - w[s, d])
                 abar[j, d] = A[s, j, d]
             out[j] = theta[s, j] + acc
-        return s
+        return
     out[:] = 0.0
     abar[:] = 0.0
     index, dist2 = _sphere(s, r2, shape)
@@ -141,7 +137,6 @@ def coarse(
         out[j] /= total
         for d in range(D):
             abar[j, d] /= total
-    return s
 
 
 @_jit
@@ -169,10 +164,11 @@ def act_coarse(
     bad = status(u, box)
     if bad != OK:
         return -bad
-    s = -1
     if len(block_radius) > 0:
         s = winner_pruned(w, w2, u, shape, block_centre, block_radius)
-    s = coarse(s, u, w, w2, theta, A, table, r2, shape, out_cmd, out_abar)
+    else:
+        s = winner(w, w2, u)
+    coarse(s, u, w, theta, A, table, r2, shape, out_cmd, out_abar)
     for j in range(len(out_cmd)):
         out_cmd[j] = min(max(out_cmd[j], joints[0, j]), joints[1, j])
     out_u[:] = u

@@ -439,11 +439,9 @@ class VisuomotorSOM(CompiledPath, Controller):
         r2 = self._grid.cutoff_radius2(sigma_out) if self.averaging == "neighbourhood" else 0
         if self.kernel == "numba":
             table = self._grid.weights(sigma_out)
-            s = self._winner(u) if self._pruned else -1
+            s = self._winner(u)
             theta, abar = np.empty(self.n_joints), np.empty((self.n_joints, self.input_dim))
-            s = kernels.coarse(
-                s, u, self._w, self._w2, self._th, self._A, table, r2, self._shape, theta, abar
-            )
+            kernels.coarse(s, u, self._w, self._th, self._A, table, r2, self._shape, theta, abar)
             self._last_winner = (u.tobytes(), self._version, s)
             return theta, abar
         s = self._winner(u)
