@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -85,7 +86,7 @@ def error_vs_neurons(rows: list[dict[str, Any]], path: Path) -> Path:
         twin.set_ylabel("Brause e^LA (rad)", fontsize=8)
         ticks = sorted({round(r["n_per_axis"], 2) for r in rows})
         ax.set_xticks(ticks, [f"{t:g}" for t in ticks], fontsize=7)
-        ax.minorticks_off()
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())  # n only where measured
         ax.set_xlabel("neurons per axis n = N^(1/3)")
         ax.set_ylabel(f"mean error after {MOVE_NAMES[move]} move (mm)")
         handles = [h for a in (ax, twin) for h in a.get_legend_handles_labels()[0]]
