@@ -21,6 +21,9 @@ FOVEA_DENSITY = 4.0
 #: Window half-size beyond the marker image's expected radius, base pixels: room for the
 #: prediction's error.
 FOVEA_MARGIN_PX = 5.0
+#: How much deeper than expected (m along the optical axis) the marker may be: geoms wholly
+#: beyond the expected depth + radius + this are not drawn in the window.
+FOVEA_DEPTH_MARGIN = 0.1
 #: The marker image's semi-axis, as a share of the image height, assumed when only one camera
 #: has seen it (its distance unknown).
 FALLBACK_MAJOR = 0.05
@@ -51,8 +54,14 @@ class FoveatedSensing:
         if np.all(np.isfinite(guess)):
             centre = st.triangulate(guess[None])  # (1, 3)
             major = [c.sphere_semi_axes(centre, radius)[0, 0] for c in st.cameras]  # px
+            # depth along each optical axis (the camera looks along -z), and room beyond it
+            depth = [
+                float((c.position - centre[0]) @ c.rotation[:, 2]) + radius + FOVEA_DEPTH_MARGIN
+                for c in st.cameras
+            ]
         else:  # one camera: the distance is not known
             major = [FALLBACK_MAJOR * st.height] * 2
+            depth = [np.inf] * 2
         out = []
         for k in range(2):
             uv = guess[2 * k : 2 * k + 2]
@@ -63,7 +72,7 @@ class FoveatedSensing:
             left = float(np.clip(uv[0] - size / 2, -0.5, st.width - 0.5 - size))
             top = float(np.clip(uv[1] - size / 2, -0.5, st.height - 0.5 - size))
             pixels = min(int(np.ceil(size * self.density)), st.height)  # fits the buffer
-            out.append(Window(left, top, pixels, pixels, pixels / size))
+            out.append(Window(left, top, pixels, pixels, pixels / size, depth[k]))
         return out
 
     def sense(
@@ -71,12 +80,16 @@ class FoveatedSensing:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pixels (4,) of the sphere centre in the base images (NaN where not visible) and
         visible (2,) bool, from windows about ``expected`` (4,) px; whole images first if
-        ``expected`` is None or the marker is not in its windows."""
+        ``expected`` is None or the marker is not in its windows.
+
+        A camera whose window shows the marker's blob clear of the window's border but not
+        trusted (a sliver, its outline hidden) is not rendered whole: the whole image would show
+        the same part of the marker at a lower density."""
         if expected is not None and np.any(np.isfinite(expected)):
-            pixels, visible = self.stereo.sense(
+            pixels, visible, framed = self.stereo.sense_sphere(
                 data, marker, radius, self.windows(expected, radius)
             )
-            if visible.all():
+            if np.all(visible | framed):
                 return pixels, visible
         self.fallbacks += 1
         whole, seen = self.stereo.sense(data, marker, radius)

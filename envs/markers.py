@@ -64,8 +64,22 @@ class Blob:
 def find_blob(rgb: np.ndarray, colour: MarkerColour, whole: bool = False) -> Blob | None:
     """The largest 8-connected region of ``colour`` in ``rgb`` (h, w, 3), or None if there is
     none of at least MIN_BLOB_PIXELS pixels. ``whole``: all regions of that colour together
-    (a marker cut in two by a thin link in front of it), with their holes filled."""
+    (a marker cut in two by a thin link in front of it), with their holes filled, or None if
+    they have fewer than MIN_BLOB_PIXELS pixels together."""
     mask = colour.mask(rgb)
+    height, width = mask.shape
+    if whole:  # every region, holes (the specular highlight, unsaturated) filled
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        if not contours:
+            return None
+        filled = np.zeros_like(mask)
+        cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
+        x, y, w, h = cv2.boundingRect(np.concatenate(contours))
+        count = cv2.countNonZero(filled)
+        if count < MIN_BLOB_PIXELS:
+            return None
+        border = x == 0 or y == 0 or x + w >= width or y + h >= height
+        return Blob(filled > 0, int(count), bool(border))
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     if count < 2:
         return None
@@ -73,14 +87,6 @@ def find_blob(rgb: np.ndarray, colour: MarkerColour, whole: bool = False) -> Blo
     x, y, w, h, area = stats[best]
     if area < MIN_BLOB_PIXELS:
         return None
-    height, width = mask.shape
-    if whole:  # every region, holes (the specular highlight, unsaturated) filled
-        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-        filled = np.zeros_like(mask)
-        cv2.drawContours(filled, contours, -1, 1, thickness=cv2.FILLED)
-        region = filled > 0
-        border = region[0].any() or region[-1].any() or region[:, 0].any() or region[:, -1].any()
-        return Blob(region, int(region.sum()), bool(border))
     border = x == 0 or y == 0 or x + w >= width or y + h >= height
     return Blob(labels == best, int(area), bool(border))
 
@@ -138,25 +144,35 @@ def find_sphere(
     cv2.fillConvexPoly(filled, hull, 1)
     if blob.count < MIN_FILL_RATIO * filled.sum():
         return None
-    rows, cols = np.nonzero(filled)
-    uv = np.stack([cols + x, rows + y], axis=-1).astype(float)  # (n, 2) pixel centres
-    centroid = uv.mean(axis=0)
-    return Sighting(perspective_centre(centroid, uv, center, focal), float(len(uv)))
+    centroid, covariance = pixel_moments(filled)
+    centroid += (x, y)
+    return Sighting(perspective_centre(centroid, covariance, center, focal), float(filled.sum()))
+
+
+def pixel_moments(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centroid (2,) px (column, row) and covariance (2, 2) px² of the pixel centres of a
+    binary ``mask`` (h, w) with at least one pixel."""
+    m = cv2.moments(mask.astype(np.uint8), binaryImage=True)
+    n = m["m00"]
+    centroid = np.array([m["m10"] / n, m["m01"] / n])
+    covariance = np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / n
+    return centroid, covariance
 
 
 def perspective_centre(
-    centroid: np.ndarray, uv: np.ndarray, center: np.ndarray, focal: np.ndarray
+    centroid: np.ndarray, covariance: np.ndarray, center: np.ndarray, focal: np.ndarray
 ) -> np.ndarray:
-    """The image (2,) px of a sphere's centre from its blob's pixels uv (n, 2) and their
-    centroid (2,) (see the module docstring)."""
+    """The image (2,) px of a sphere's centre from its blob pixels' centroid (2,) px and
+    covariance (2, 2) px² (see the module docstring)."""
     offset = (centroid - center) / focal  # normalised, y downwards (sign does not matter here)
     rho = float(np.hypot(*offset))
     if rho < 1e-9:
         return centroid
     direction = offset / rho
-    radial = ((uv - centroid) / focal) @ direction  # (n,) normalised radial spread
+    scaled = direction / focal  # px -> normalised units along the radial direction
+    radial_var = float(scaled @ covariance @ scaled)  # normalised², radial spread
     # Uniform ellipse: variance along the major axis = a²/4; a pixel adds 1/12 px² of its own.
-    pixel_var = (direction**2 / focal**2).sum() / 12.0
-    half_axis = 2.0 * np.sqrt(max(radial.var() - pixel_var, 0.0))
+    pixel_var = (scaled**2).sum() / 12.0
+    half_axis = 2.0 * np.sqrt(max(radial_var - pixel_var, 0.0))
     phi = 0.5 * (np.arctan(rho - half_axis) + np.arctan(rho + half_axis))
     return center + direction * np.tan(phi) * focal

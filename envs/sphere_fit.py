@@ -67,20 +67,29 @@ def fit_centre(
     free = 4 if len(origins) > 1 else 3
     for _ in range(MAX_ITERATIONS):
         v = x[:3] - centres  # (m, 3) from each ray's camera centre
-        tangent = np.sqrt(np.maximum((v * v).sum(1) - x[3] ** 2, 1e-12))  # (m,)
-        r = (D * v).sum(1) - tangent
-        J = np.column_stack([D - v / tangent[:, None], x[3] / tangent])  # (m, 4)
-        step = np.linalg.lstsq(J[:, :free], -r, rcond=None)[0]
+        tangent = np.sqrt(np.maximum(np.einsum("ij,ij->i", v, v) - x[3] ** 2, 1e-12))  # (m,)
+        r = np.einsum("ij,ij->i", D, v) - tangent
+        J = np.empty((len(D), 4))
+        J[:, :3] = D - v / tangent[:, None]
+        J[:, 3] = x[3] / tangent
+        J = J[:, :free]
+        try:  # normal equations: (free, free), several times cheaper than lstsq on (m, free)
+            step = np.linalg.solve(J.T @ J, -(J.T @ r))
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(J, -r, rcond=None)[0]
         x[:free] += step
-        if np.linalg.norm(step) < CONVERGED_STEP:
+        if step @ step < CONVERGED_STEP**2:
             break
     return x[:3], float(x[3])
 
 
-def outline_residual_px(camera, centre: np.ndarray, radius: float, uv: np.ndarray) -> np.ndarray:
+def outline_residual_px(
+    camera, centre: np.ndarray, radius: float, uv: np.ndarray, d: np.ndarray | None = None
+) -> np.ndarray:
     """Distance (m,) px from each point uv (m, 2) to the outline of the sphere (centre (3,) m),
-    along the outline's normal through that point (negative inside)."""
-    d = rays(camera, uv)
+    along the outline's normal through that point (negative inside); ``d`` (m, 3): the points'
+    :func:`rays`, if known."""
+    d = rays(camera, uv) if d is None else d
     axis = centre - camera.position
     dist = np.linalg.norm(axis)
     axis = axis / dist
@@ -142,19 +151,28 @@ def _fit(
         distance = o.camera.focal[0] * radius * np.sqrt(np.pi / max(o.area, 1.0))
         start = o.camera.position + distance * rays(o.camera, o.start[None])[0]
     points = {k: outlines[k].points for k in used}
+    directions = {k: rays(outlines[k].camera, points[k]) for k in used}
+    residuals: dict[int, np.ndarray] = {}  # px, of the points kept, to the last fit
     centre, outline_radius = start, radius
     for _ in range(2):  # fit, drop the points that are not on the outline, fit again
         if min(len(p) for p in points.values()) < MIN_OUTLINE_POINTS:
             break
         centre, outline_radius = fit_centre(
             [outlines[k].camera.position for k in used],
-            [rays(outlines[k].camera, points[k]) for k in used],
+            [directions[k] for k in used],
             radius,
             centre,
         )
         for k in used:
-            residual = outline_residual_px(outlines[k].camera, centre, outline_radius, points[k])
-            points[k] = points[k][np.abs(residual) <= TRIM_PX]
+            residual = outline_residual_px(
+                outlines[k].camera, centre, outline_radius, points[k], directions[k]
+            )
+            keep = np.abs(residual) <= TRIM_PX
+            points[k], directions[k], residuals[k] = (
+                points[k][keep],
+                directions[k][keep],
+                residual[keep],
+            )
     if not np.all(np.isfinite(centre)):
         return None
     ok = {}
@@ -163,7 +181,7 @@ def _fit(
         if len(p) < MIN_OUTLINE_POINTS:
             ok[k] = False
             continue
-        rms = np.sqrt(np.mean(outline_residual_px(o.camera, centre, outline_radius, p) ** 2))
+        rms = np.sqrt(np.mean(residuals[k] ** 2))
         whole = o.camera.sphere_area(centre[None], radius)[0]
         ok[k] = bool(rms <= MAX_RMS_PX and o.area >= (1.0 - MAX_HIDDEN) * whole)
     return centre, ok

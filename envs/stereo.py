@@ -13,7 +13,14 @@ from functools import cached_property
 
 import numpy as np
 
-from envs.markers import MarkerColour, find_blob, find_sphere, outline_edges, perspective_centre
+from envs.markers import (
+    MarkerColour,
+    find_blob,
+    find_sphere,
+    outline_edges,
+    perspective_centre,
+    pixel_moments,
+)
 from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
 from envs.sphere_fit import CameraOutline, locate
 from envs.triangulation import camera_floats, triangulate_elementwise
@@ -236,25 +243,45 @@ class StereoRig(CameraPair):
         Returns:
             pixels (4,) of the sphere centre's image (NaN where not visible), visible (2,) bool.
         """
-        groups = (GROUP_TARGET,) if marker.is_target else (GROUP_ROBOT, GROUP_MARKER)
-        if windows is None:  # whole images show the scene; windows skip its static background
-            groups = (GROUP_SCENE, *groups)
-        views = self.views(windows)
-        images = self._renderer.render(data, views, groups)
-        if radius is None:
-            pixels = np.full(4, np.nan)
-            for k, ((rgb, _), view) in enumerate(zip(images, views, strict=True)):
-                if view.window != Window.full(self.height, self.width):
-                    raise ValueError("centroid sensing (no radius) needs whole images")
-                found = find_sphere(rgb, marker, view.center, view.focal)
-                if found is not None:
-                    pixels[2 * k : 2 * k + 2] = found.uv
-            return pixels, np.isfinite(pixels[::2])
+        if radius is not None:
+            return self.sense_sphere(data, marker, radius, windows)[:2]
+        views, images = self._render(data, marker, windows)
+        pixels = np.full(4, np.nan)
+        for k, ((rgb, _), view) in enumerate(zip(images, views, strict=True)):
+            if view.window != Window.full(self.height, self.width):
+                raise ValueError("centroid sensing (no radius) needs whole images")
+            found = find_sphere(rgb, marker, view.center, view.focal)
+            if found is not None:
+                pixels[2 * k : 2 * k + 2] = found.uv
+        return pixels, np.isfinite(pixels[::2])
+
+    def sense_sphere(
+        self,
+        data,
+        marker: MarkerColour,
+        radius: float,
+        windows: Sequence[Window] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`sense` of a sphere of known ``radius`` (m), also returning framed (2,) bool:
+        which views show its blob clear of their border (a larger view would show no more of
+        it)."""
+        views, images = self._render(data, marker, windows)
         outlines = [
             _outline(rgb, depth, marker, cam, view.window, radius)
             for (rgb, depth), cam, view in zip(images, self.cameras, views, strict=True)
         ]
-        return locate(outlines, radius, self.triangulate)
+        pixels, visible = locate([o for o, _ in outlines], radius, self.triangulate)
+        return pixels, visible, np.array([framed for _, framed in outlines])
+
+    def _render(
+        self, data, marker: MarkerColour, windows: Sequence[Window] | None
+    ) -> tuple[list[View], list[tuple[np.ndarray, np.ndarray]]]:
+        """The views and their (RGB, depth) images, drawing the marker's geom groups."""
+        groups = (GROUP_TARGET,) if marker.is_target else (GROUP_ROBOT, GROUP_MARKER)
+        if windows is None:  # whole images show the scene; windows skip its static background
+            groups = (GROUP_SCENE, *groups)
+        views = self.views(windows)
+        return views, self._renderer.render(data, views, groups)
 
     def close(self) -> None:
         self._renderer.close()
@@ -267,15 +294,17 @@ def _outline(
     camera: PinholeCamera,
     window: Window,
     radius: float,
-) -> CameraOutline | None:
+) -> tuple[CameraOutline | None, bool]:
     """What one camera's view shows of the marker sphere (``radius`` m), in base pixels (None:
-    no blob)."""
+    no blob), and whether the blob is clear of the view's border."""
     blob = find_blob(rgb, marker, whole=True)
     if blob is None:
-        return None
+        return None, False
     edges = outline_edges(blob, depth, OUTLINE_DEPTH_MARGIN * radius)  # (m, 2) window px
-    rows, cols = np.nonzero(blob.mask)
-    uv = window.to_base(cols, rows)  # (n, 2)
-    start = perspective_centre(uv.mean(axis=0), uv, camera.center, camera.focal)
+    centroid, covariance = pixel_moments(blob.mask)  # window px
+    centroid = window.to_base(centroid[:1], centroid[1:])[0]
+    covariance /= window.density**2  # base px²
+    start = perspective_centre(centroid, covariance, camera.center, camera.focal)
     area = blob.count / window.density**2  # base px²
-    return CameraOutline(camera, window.to_base(edges[:, 0], edges[:, 1]), area, start)
+    outline = CameraOutline(camera, window.to_base(edges[:, 0], edges[:, 1]), area, start)
+    return outline, not blob.touches_border

@@ -9,6 +9,7 @@ is nearer the camera.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -18,7 +19,8 @@ from envs.rendering import SENSING_OFF_FLAGS, check_gl_allowed, gl_start_error, 
 
 #: Slices and stacks of the sphere meshes (MuJoCo's default 28 and 16 leave the outline of a
 #: marker up to 2 % of its radius off a circle: 0.15 px for the PUMA's 8 px marker).
-SPHERE_SLICES = 64
+SPHERE_SLICES = 36
+SPHERE_STACKS = 18
 #: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
 SQUARE_PIXEL_TOL = 1e-5
 
@@ -31,6 +33,11 @@ class Window:
     centre of base pixel (row i, column j) is (u, v) = (j, i), its edges at ±0.5); ``width``,
     ``height`` its size in window pixels. Window pixel (i, j) has its centre at base
     (left + (j + 0.5) / density, top + (i + 0.5) / density).
+
+    A window draws only the geoms that can reach into it: those whose bounding sphere meets its
+    frustum, nearer than ``depth`` (m along the optical axis). Sensing a marker at most that
+    deep gives the same result: a geom wholly behind it can neither hide it nor change its
+    outline (an edge against anything farther counts as the sphere's own edge either way).
     """
 
     left: float
@@ -38,6 +45,7 @@ class Window:
     width: int
     height: int
     density: float = 1.0
+    depth: float = math.inf
 
     @classmethod
     def full(cls, height: int, width: int) -> Window:
@@ -78,6 +86,7 @@ class ViewportRenderer:
         self._gl = self._context = self._scene = None
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
         self._cameras: dict = {}  # camera name -> mujoco.MjvCamera
+        self._geoms: dict = {}  # (groups, scene geoms) -> scene's model geoms, their ids
 
     def _start(self) -> None:
         import mujoco
@@ -88,7 +97,7 @@ class ViewportRenderer:
         g.offwidth, g.offheight = max(g.offwidth, self.max_width), max(g.offheight, self.max_height)
         q.offsamples = 0
         # Finer spheres: a 28-slice, 16-stack outline is up to 2 % of the radius off a circle.
-        q.numslices, q.numstacks = max(q.numslices, SPHERE_SLICES), max(q.numstacks, SPHERE_SLICES)
+        q.numslices, q.numstacks = SPHERE_SLICES, SPHERE_STACKS
         try:
             self._gl = mujoco.GLContext(g.offwidth, g.offheight)
             self._gl.make_current()
@@ -127,6 +136,18 @@ class ViewportRenderer:
             self._cameras[name] = cam
         return cam
 
+    def _model_geoms(self, groups: tuple[int, ...]) -> tuple[list, np.ndarray]:
+        """The scene's geoms that are model geoms, and their ids (n,), after an update with
+        ``groups`` (the same for every update with the same groups)."""
+        import mujoco
+
+        scene = self._scene
+        key = (groups, scene.ngeom)
+        if key not in self._geoms:
+            geoms = [g for g in scene.geoms[: scene.ngeom] if g.objtype == mujoco.mjtObj.mjOBJ_GEOM]
+            self._geoms[key] = (geoms, np.array([g.objid for g in geoms], dtype=int))
+        return self._geoms[key]
+
     def render(
         self, data, views: Sequence[View], groups: Sequence[int]
     ) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -149,13 +170,20 @@ class ViewportRenderer:
             self.model, data, option, None, self._camera(views[0].camera),
             mujoco.mjtCatBit.mjCAT_ALL, scene,
         )  # fmt: skip
+        geoms, ids = self._model_geoms(tuple(groups))
+        centres, reach = data.geom_xpos[ids], self.model.geom_rbound[ids]
+        reach = np.where(reach > 0, reach, np.inf)  # planes have no bounding sphere (rbound 0)
         for k, view in enumerate(views):
             if k > 0:
                 mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
+            hidden = []
             if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
                 _set_frustum(scene, view)
+                hidden = _hide_outside(scene, geoms, centres, reach, view.window.depth)
             w = view.window
             mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, self._context)
+            for geom, kind in hidden:
+                geom.type = kind
             x += w.width
         rgb = np.empty((height, x, 3), dtype=np.uint8)
         raw = np.empty((height, x), dtype=np.float32)
@@ -181,7 +209,7 @@ class ViewportRenderer:
 
     def __getstate__(self) -> dict:
         return {**self.__dict__, "_gl": None, "_context": None, "_scene": None, "_options": {},
-                "_cameras": {}}  # fmt: skip
+                "_cameras": {}, "_geoms": {}}  # fmt: skip
 
 
 def _set_frustum(scene, view: View) -> None:
@@ -198,3 +226,30 @@ def _set_frustum(scene, view: View) -> None:
         glcam.frustum_width = (right - w.left) / 2 / fu * near  # half-width, used when set
         glcam.frustum_top = (cv - w.top) / fv * near
         glcam.frustum_bottom = (cv - bottom) / fv * near
+
+
+def _hide_outside(scene, geoms: list, centres: np.ndarray, reach: np.ndarray, depth: float) -> list:
+    """Hide (type NONE) those of ``geoms`` (MjvGeoms of ``scene``, bounding spheres at
+    ``centres`` (n, 3) m of radii ``reach`` (n,) m) that lie wholly outside the frustum of the
+    scene's camera (after :func:`_set_frustum`: the window's) or beyond ``depth`` (m along the
+    optical axis); returns (geom, type) pairs to restore. Such a geom draws no pixel in the
+    window (or none that matters, see :class:`Window`), but costs its triangles."""
+    import mujoco
+
+    cam = scene.camera[0]
+    (f0, f1, f2), (u0, u1, u2) = cam.forward, cam.up
+    right = (f1 * u2 - f2 * u1, f2 * u0 - f0 * u2, f0 * u1 - f1 * u0)  # forward × up
+    basis = np.array([right, (u0, u1, u2), (f0, f1, f2)])  # rows: camera x right, y up, depth
+    near, centre, half = cam.frustum_near, cam.frustum_center, cam.frustum_width
+    left, right_, bottom, top = centre - half, centre + half, cam.frustum_bottom, cam.frustum_top
+    # Inward normals (camera coordinates) of the frustum's side planes and of the camera plane.
+    normals = np.array(
+        [[near, 0, -left], [-near, 0, right_], [0, near, -bottom], [0, -near, top], [0, 0, 1.0]]
+    )
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    local = (centres - np.asarray(cam.pos)) @ basis.T  # (n, 3) camera coordinates, m
+    outside = (local @ normals.T < -reach[:, None]).any(1) | (local[:, 2] - reach > depth)
+    hidden = [(geoms[i], geoms[i].type) for i in np.flatnonzero(outside)]
+    for g, _ in hidden:
+        g.type = mujoco.mjtGeom.mjGEOM_NONE
+    return hidden
