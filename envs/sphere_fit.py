@@ -27,6 +27,15 @@ TRIM_PX = 1.0
 MIN_OUTLINE_POINTS = 8
 MAX_RMS_PX = 0.6
 MAX_HIDDEN = 0.9
+#: A sliver (a blob covering less than 1 - MAX_HIDDEN of the sphere's image, but at least
+#: 1 - MAX_HIDDEN_SLIVER) is trusted too when the fit of both cameras agrees with the geometry:
+#: the other camera is trusted on the terms above, the sliver's points (at least
+#: MIN_OUTLINE_POINTS, RMS at most MAX_RMS_PX) span at least MIN_SLIVER_ARC rad of the outline
+#: about the centre's image, and the radius fitted to both views is within RADIUS_TOL of the
+#: sphere's (so the distance the views triangulate agrees with the outline's size in each).
+MAX_HIDDEN_SLIVER = 0.98
+MIN_SLIVER_ARC = 0.8
+RADIUS_TOL = 0.03
 
 
 @dataclass(frozen=True)
@@ -113,6 +122,14 @@ def locate(
     (say a sliver of the sphere with an occluder's edge in it), it is fitted again without that
     camera (without the one that saw least, if none is trusted).
 
+    How "visible" (trusted) is decided, per camera: after trimming, at least MIN_OUTLINE_POINTS
+    outline points at an RMS distance of at most MAX_RMS_PX from the fitted outline, and a blob
+    of at least 1 - MAX_HIDDEN (10 %) of the sphere's image. A sliver, down to
+    1 - MAX_HIDDEN_SLIVER (2 %) of it, is trusted only beside a camera trusted on those terms,
+    when its points span at least MIN_SLIVER_ARC rad of the outline and the radius fitted to
+    both views is within RADIUS_TOL of the sphere's: the other camera then fixes the centre's
+    direction, and the sliver's arc, which must agree with it, the distance along that ray.
+
     Args:
         outlines: per camera, its outline (None: no blob).
         radius: the sphere's radius, m.
@@ -175,13 +192,26 @@ def _fit(
             )
     if not np.all(np.isfinite(centre)):
         return None
-    ok = {}
+    fitted, share = {}, {}  # outline fits; share of the sphere's image the blob covers
     for k in used:
         o, p = outlines[k], points[k]
-        if len(p) < MIN_OUTLINE_POINTS:
-            ok[k] = False
-            continue
-        rms = np.sqrt(np.mean(residuals[k] ** 2))
-        whole = o.camera.sphere_area(centre[None], radius)[0]
-        ok[k] = bool(rms <= MAX_RMS_PX and o.area >= (1.0 - MAX_HIDDEN) * whole)
+        rms = np.sqrt(np.mean(residuals[k] ** 2)) if len(p) >= MIN_OUTLINE_POINTS else np.inf
+        fitted[k] = bool(rms <= MAX_RMS_PX)
+        share[k] = o.area / o.camera.sphere_area(centre[None], radius)[0]
+    own = {k: fitted[k] and share[k] >= 1.0 - MAX_HIDDEN for k in used}  # trusted on its own
+    ok = dict(own)
+    if len(used) == 2 and abs(outline_radius / radius - 1.0) <= RADIUS_TOL:
+        a, b = used
+        for k, other in ((a, b), (b, a)):
+            if not own[k] and own[other] and fitted[k] and share[k] >= 1.0 - MAX_HIDDEN_SLIVER:
+                ok[k] = outline_arc(outlines[k].camera, centre, points[k]) >= MIN_SLIVER_ARC
     return centre, ok
+
+
+def outline_arc(camera, centre: np.ndarray, uv: np.ndarray) -> float:
+    """The angle (rad, 0 to 2π) that points uv (m, 2) px span about the image of ``centre``
+    (3,) m: 2π less the widest angular gap between neighbouring points."""
+    offset = uv - camera.project(centre[None])[0]
+    angles = np.sort(np.arctan2(offset[:, 1], offset[:, 0]))
+    gaps = np.diff(angles, append=angles[0] + 2.0 * np.pi)
+    return float(2.0 * np.pi - gaps.max())

@@ -232,7 +232,10 @@ class StereoRig(CameraPair):
         A camera's sighting counts only when the fit is trustworthy: at least
         ``sphere_fit.MIN_OUTLINE_POINTS`` outline points within ``TRIM_PX`` of the fitted
         outline, RMS distance at most ``MAX_RMS_PX`` px, and the blob at least
-        ``1 - MAX_HIDDEN`` of the whole sphere's image area (at most 90 % hidden).
+        ``1 - MAX_HIDDEN`` of the whole sphere's image area (at most 90 % hidden); a sliver
+        down to 2 % of it only beside a camera trusted on those terms, with an outline arc of
+        at least ``MIN_SLIVER_ARC`` rad and a fitted radius that agrees with both views
+        (:func:`envs.sphere_fit.locate`).
 
         Args:
             windows: per camera, the part of its image to render (default: all of it); pixels

@@ -1,6 +1,8 @@
 """Foveated sensing: windows map back to base-image pixels exactly, and find markers where the
 projection says, more precisely than whole images."""
 
+from dataclasses import replace
+
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -93,4 +95,39 @@ def test_the_foveated_env_reports_base_image_pixels():
     effector = base.stereo.project(info["effector_pos"][None])[0]
     np.testing.assert_allclose(obs["desired_goal"], target, atol=0.1)
     np.testing.assert_allclose(obs["achieved_goal"], effector, atol=0.1)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ["RiacsReach-v0", "PumaReach-v0"])
+def test_windows_draw_what_whole_images_draw_about_the_marker(env_id):
+    """A window skips the robot's geoms outside its frustum: at base density and on pixel edges
+    it is still a crop of the whole image with the robot drawn, on random poses. Skipping the
+    geoms behind the expected marker (a finite window depth) changes no sensed pixel."""
+    env = gym.make(env_id, sensing="foveated", control="kinematic").unwrapped
+    env.reset(seed=0)
+    st, radius, groups = env.stereo, env._marker_radius, (GROUP_ROBOT, GROUP_MARKER)
+    rng = np.random.default_rng(7)
+    compared = 0
+    while compared < 12:
+        env.data.qpos[env._qpos_ids] = rng.uniform(env.joint_lower, env.joint_upper)
+        mujoco.mj_forward(env.model, env.data)
+        projected = st.project(env.data.site_xpos[env._site][None])[0]
+        if not np.all((projected > 20) & (projected < [300, 220, 300, 220])):
+            continue
+        whole = st._renderer.render(env.data, st.views(), groups)
+        corners = np.round(projected - 16) - 0.5  # window edges on pixel edges
+        crops = [Window(corners[0], corners[1], 32, 32), Window(corners[2], corners[3], 32, 32)]
+        parts = st._renderer.render(env.data, st.views(crops), groups)
+        for (image, _), (crop, _), w in zip(whole, parts, crops, strict=True):
+            left, top = int(w.left + 0.5), int(w.top + 0.5)
+            expected = image[top : top + w.height, left : left + w.width]
+            assert np.all(expected == crop, axis=-1).mean() > 0.99
+        windows = env._fovea.windows(projected + rng.normal(0, 2, 4), radius)
+        assert all(np.isfinite(w.depth) for w in windows)
+        unlimited = [replace(w, depth=np.inf) for w in windows]
+        near = st.sense_sphere(env.data, GREEN_EFFECTOR, radius, windows)
+        every = st.sense_sphere(env.data, GREEN_EFFECTOR, radius, unlimited)
+        for a, b in zip(near, every, strict=True):
+            np.testing.assert_array_equal(a, b)
+        compared += 1
     env.close()

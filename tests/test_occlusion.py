@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from envs.markers import GREEN_EFFECTOR
-from envs.sphere_fit import MAX_HIDDEN
+from envs.sphere_fit import MAX_HIDDEN, MAX_HIDDEN_SLIVER, outline_arc
 from envs.stereo import StereoRig
 
 RADIUS = 0.05  # m: about 16 px in these 320x240 images
@@ -96,3 +96,43 @@ def test_a_thin_bar_across_the_marker_does_not_hide_it(rig):
     hidden, pixels, visible = _hidden_and_sensed(model, data, stereo, pos, (0.2, 0.004, 0.005))
     assert np.all(hidden > 0.1) and visible.all()
     np.testing.assert_allclose(pixels, stereo.project(CENTRE[None])[0], atol=0.5)
+
+
+def test_a_sliver_beside_a_camera_that_sees_the_marker():
+    """A plate slid across the left camera's view only (half-way between it and the sphere):
+    the left camera's centre stays within 0.5 px of the projection while a sliver of at least
+    1 - MAX_HIDDEN_SLIVER + 0.03 is visible (its outline arc then exceeds MIN_SLIVER_ARC), and is
+    not reported once less than 1 - MAX_HIDDEN_SLIVER - 0.01 is visible."""
+    model = mujoco.MjModel.from_xml_string(SCENE)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    stereo = StereoRig(model, data)
+    expected = stereo.project(CENTRE[None])[0]
+    sight = (CENTRE + np.array([0.3, 0.0, 1.0])) / 2  # on the left camera's ray, half-way
+    seen_slivers = []
+    for edge in np.linspace(0.01, -0.03, 41):  # plate edge from that ray, m (cone radius ~0.025)
+        pos = sight + np.array([0.2 + edge, 0.0, 0.0])  # the plate covers x > sight + edge
+        hidden, pixels, visible = _hidden_and_sensed(model, data, stereo, pos, (0.2, 0.2, 0.005))
+        assert hidden[1] == 0 and visible[1]
+        error = np.hypot(*(pixels - expected).reshape(2, 2).T)
+        assert error[1] <= 0.5
+        if hidden[0] <= MAX_HIDDEN_SLIVER - 0.03:
+            assert visible[0], f"{hidden[0]:.3f} hidden, not found"
+            assert error[0] <= 0.5, f"{hidden[0]:.3f} hidden, {error[0]:.2f} px off"
+            if hidden[0] > MAX_HIDDEN:
+                seen_slivers.append(hidden[0])
+        elif hidden[0] >= MAX_HIDDEN_SLIVER + 0.01:
+            assert not visible[0], f"{hidden[0]:.3f} hidden, still reported"
+    stereo.close()
+    assert len(seen_slivers) >= 2  # the sweep really crossed slivers
+
+
+def test_outline_arc_of_points_on_a_known_arc():
+    class Camera:  # the centre's image at pixel (100, 50)
+        def project(self, points):
+            return np.array([[100.0, 50.0]])
+
+    for span in (0.5, 2.0, 5.0):
+        angles = np.linspace(1.0, 1.0 + span, 40)
+        uv = np.array([100.0, 50.0]) + 7.0 * np.column_stack([np.cos(angles), np.sin(angles)])
+        assert outline_arc(Camera(), np.zeros(3), uv) == pytest.approx(span)
