@@ -180,16 +180,20 @@ def _fit(
             radius,
             centre,
         )
+        dropped = False
         for k in used:
             residual = outline_residual_px(
                 outlines[k].camera, centre, outline_radius, points[k], directions[k]
             )
             keep = np.abs(residual) <= TRIM_PX
+            dropped = dropped or not keep.all()
             points[k], directions[k], residuals[k] = (
                 points[k][keep],
                 directions[k][keep],
                 residual[keep],
             )
+        if not dropped:  # fitting the same points again would give the same fit
+            break
     if not np.all(np.isfinite(centre)):
         return None
     fitted, share = {}, {}  # outline fits; share of the sphere's image the blob covers
