@@ -8,6 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: Candidates a sampling round draws for ``n`` points still missing: ``2 n + SPARE_CANDIDATES``.
+SPARE_CANDIDATES = 8
+
 
 class Workspace(ABC):
     """A bounded set of world points (metres)."""
@@ -19,13 +22,44 @@ class Workspace(ABC):
     def contains(self, points: np.ndarray) -> np.ndarray:
         """(N, 3) -> (N,) bool."""
 
+    @abstractmethod
+    def contains_point(self, x: float, y: float, z: float) -> bool:
+        """:meth:`contains` for one point given as Python floats (m), without array overhead."""
+
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """n points drawn uniformly from the set (rejection from the bounding box); (n, 3)."""
+        """n points drawn uniformly from the set (rejection from the bounding box); (n, 3).
+
+        Each round draws ``2 m + SPARE_CANDIDATES`` candidates for the m points still missing
+        and keeps those inside, in order. One point (a reach env's reset) is tested candidate by
+        candidate with :meth:`contains_point` up to the first inside: the same draws from
+        ``rng`` and the same point as the batch test (:meth:`contains`) would give.
+        """
+        if n == 1:
+            return self._sample_one(rng)[None]
         out = np.empty((0, 3))
         while len(out) < n:
-            cand = rng.uniform(self.lower, self.upper, size=(2 * (n - len(out)) + 8, 3))
+            cand = rng.uniform(
+                self.lower, self.upper, size=(2 * (n - len(out)) + SPARE_CANDIDATES, 3)
+            )
             out = np.concatenate([out, cand[self.contains(cand)]])
         return out[:n]
+
+    def _sample_one(self, rng: np.random.Generator) -> np.ndarray:
+        """One point (3,): the rounds of :meth:`sample` for n = 1, tested one candidate at a time.
+
+        ``rng.uniform(lower, upper)`` is ``lower + (upper - lower) * rng.random()`` (NumPy's
+        ``random_uniform``, one double per coordinate in C order); the same IEEE operations on
+        Python floats give the same candidates without the cost of its broadcasting.
+        """
+        lower, span = self.lower.tolist(), (self.upper - self.lower).tolist()
+        x0, y0, z0 = lower
+        sx, sy, sz = span
+        while True:
+            u = rng.random(3 * (2 + SPARE_CANDIDATES)).tolist()
+            for i in range(0, len(u), 3):
+                x, y, z = x0 + sx * u[i], y0 + sy * u[i + 1], z0 + sz * u[i + 2]
+                if self.contains_point(x, y, z):
+                    return np.array([x, y, z])
 
 
 @dataclass(frozen=True)
@@ -39,17 +73,23 @@ class BoxWorkspace(Workspace):
         p = np.asarray(points, dtype=float)
         return np.all((p >= self.lower) & (p <= self.upper), axis=-1)
 
+    def contains_point(self, x: float, y: float, z: float) -> bool:
+        return _inside((x, y, z), self.lower.tolist(), self.upper.tolist())
+
 
 @dataclass(frozen=True)
 class ReachableWorkspace(Workspace):
     """The points an inverse kinematics maps into the joint ranges.
 
-    ``ik(points) -> (N, J)`` joint angles (NaN where unreachable).
+    ``ik(points) -> (N, J)`` joint angles (NaN where unreachable); ``ik_point(x, y, z) -> (J,)``
+    the same formula on Python floats (``math``), raising ValueError or ZeroDivisionError where
+    it has no solution.
     """
 
     lower: np.ndarray
     upper: np.ndarray
     ik: Callable[[np.ndarray], np.ndarray]
+    ik_point: Callable[[float, float, float], tuple[float, ...]]
     joint_lower: np.ndarray
     joint_upper: np.ndarray
 
@@ -59,3 +99,20 @@ class ReachableWorkspace(Workspace):
             q = self.ik(p)
         inside = np.all((q >= self.joint_lower) & (q <= self.joint_upper), axis=-1)
         return inside & np.all((p >= self.lower) & (p <= self.upper), axis=-1)
+
+    def contains_point(self, x: float, y: float, z: float) -> bool:
+        if not _inside((x, y, z), self.lower.tolist(), self.upper.tolist()):
+            return False
+        try:
+            q = self.ik_point(x, y, z)
+        except (ValueError, ZeroDivisionError):  # math's "no solution" (numpy's NaN)
+            return False
+        return _inside(q, self.joint_lower.tolist(), self.joint_upper.tolist())
+
+
+def _inside(values, lower: list[float], upper: list[float]) -> bool:
+    """lower ≤ values ≤ upper in every entry (False for NaN, like the array comparisons)."""
+    for v, lo, hi in zip(values, lower, upper, strict=True):
+        if not lo <= v <= hi:
+            return False
+    return True

@@ -1,5 +1,7 @@
 """RIACS 3-DOF arm (Jorgensen 1990): report formulas and the reachable workspace."""
 
+import math
+
 import numpy as np
 
 from models.riacs.kinematics import (
@@ -23,12 +25,17 @@ def _ik(points: np.ndarray) -> np.ndarray:
     return np.stack(robot3dinv(LINK1, LINK2, *points.T), axis=-1)
 
 
+def _ik_point(x: float, y: float, z: float) -> tuple[float, float, float]:
+    return robot3dinv(LINK1, LINK2, x, y, z, xp=math)
+
+
 #: The set build3dpts reaches: every point whose robot3dinv lies in the joint ranges.
 #: Bounding box from the joint ranges: x, y ∈ [0, 1], z ∈ [-0.40, 0.75] m.
 WORKSPACE = ReachableWorkspace(
     lower=np.array([0.0, 0.0, -0.40]),
     upper=np.array([1.0, 1.0, 0.75]),
     ik=_ik,
+    ik_point=_ik_point,
     joint_lower=LOWER,
     joint_upper=UPPER,
 )

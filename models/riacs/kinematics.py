@@ -34,17 +34,18 @@ def robot3df(l1, l2, theta1, theta2, theta3):
     return r * np.sin(theta1), r * np.cos(theta1), z
 
 
-def robot3dinv(l1, l2, x, y, z):
+def robot3dinv(l1, l2, x, y, z, xp=np):
     """Inverse kinematics: tool point -> (θ1, θ2, θ3), the report's single branch (elbow above the
     shoulder-tool line).
 
     atan(x/y) of the report is written atan2(x, y): equal for y > 0 (the report's quadrant) and
-    defined at y = 0.
+    defined at y = 0. ``xp=math`` evaluates the same formula on Python floats (one point, no
+    array overhead); ``math`` raises ValueError where numpy gives NaN (no solution).
     """
-    d = np.sqrt(x**2 + y**2 + z**2)
-    theta3 = np.arccos((l1**2 + l2**2 - d**2) / (2 * l1 * l2))
-    theta2 = np.arcsin(z / d) + np.arccos((d**2 + l1**2 - l2**2) / (2 * d * l1))
-    theta1 = np.arctan2(x, y)
+    d = xp.sqrt(x**2 + y**2 + z**2)
+    theta3 = xp.acos((l1**2 + l2**2 - d**2) / (2 * l1 * l2))
+    theta2 = xp.asin(z / d) + xp.acos((d**2 + l1**2 - l2**2) / (2 * d * l1))
+    theta1 = xp.atan2(x, y)
     return theta1, theta2, theta3
 
 
