@@ -5,6 +5,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -25,6 +26,11 @@ class Workspace(ABC):
     @abstractmethod
     def contains_point(self, x: float, y: float, z: float) -> bool:
         """:meth:`contains` for one point given as Python floats (m), without array overhead."""
+
+    @cached_property
+    def _floats(self) -> tuple[list[float], list[float], list[float]]:
+        """lower, upper - lower (as ``rng.uniform`` computes it) and upper, as Python floats."""
+        return self.lower.tolist(), (self.upper - self.lower).tolist(), self.upper.tolist()
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """n points drawn uniformly from the set (rejection from the bounding box); (n, 3).
@@ -51,9 +57,7 @@ class Workspace(ABC):
         ``random_uniform``, one double per coordinate in C order); the same IEEE operations on
         Python floats give the same candidates without the cost of its broadcasting.
         """
-        lower, span = self.lower.tolist(), (self.upper - self.lower).tolist()
-        x0, y0, z0 = lower
-        sx, sy, sz = span
+        (x0, y0, z0), (sx, sy, sz) = self._floats[0], self._floats[1]
         while True:
             u = rng.random(3 * (2 + SPARE_CANDIDATES)).tolist()
             for i in range(0, len(u), 3):
@@ -74,7 +78,8 @@ class BoxWorkspace(Workspace):
         return np.all((p >= self.lower) & (p <= self.upper), axis=-1)
 
     def contains_point(self, x: float, y: float, z: float) -> bool:
-        return _inside((x, y, z), self.lower.tolist(), self.upper.tolist())
+        lower, _, upper = self._floats
+        return _inside((x, y, z), lower, upper)
 
 
 @dataclass(frozen=True)
@@ -101,13 +106,18 @@ class ReachableWorkspace(Workspace):
         return inside & np.all((p >= self.lower) & (p <= self.upper), axis=-1)
 
     def contains_point(self, x: float, y: float, z: float) -> bool:
-        if not _inside((x, y, z), self.lower.tolist(), self.upper.tolist()):
+        lower, _, upper = self._floats
+        if not _inside((x, y, z), lower, upper):
             return False
         try:
             q = self.ik_point(x, y, z)
         except (ValueError, ZeroDivisionError):  # math's "no solution" (numpy's NaN)
             return False
-        return _inside(q, self.joint_lower.tolist(), self.joint_upper.tolist())
+        return _inside(q, *self._joint_floats)
+
+    @cached_property
+    def _joint_floats(self) -> tuple[list[float], list[float]]:
+        return self.joint_lower.tolist(), self.joint_upper.tolist()
 
 
 def _inside(values, lower: list[float], upper: list[float]) -> bool:

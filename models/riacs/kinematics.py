@@ -42,9 +42,9 @@ def robot3dinv(l1, l2, x, y, z, xp=np):
     defined at y = 0. ``xp=math`` evaluates the same formula on Python floats (one point, no
     array overhead); ``math`` raises ValueError where numpy gives NaN (no solution).
     """
-    d = xp.sqrt(x**2 + y**2 + z**2)
-    theta3 = xp.acos((l1**2 + l2**2 - d**2) / (2 * l1 * l2))
-    theta2 = xp.asin(z / d) + xp.acos((d**2 + l1**2 - l2**2) / (2 * d * l1))
+    d = xp.sqrt(x * x + y * y + z * z)  # products, not powers: Python's x**2 is libm's pow
+    theta3 = xp.acos((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2))
+    theta2 = xp.asin(z / d) + xp.acos((d * d + l1 * l1 - l2 * l2) / (2 * d * l1))
     theta1 = xp.atan2(x, y)
     return theta1, theta2, theta3
 
