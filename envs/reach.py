@@ -393,7 +393,9 @@ class ReachEnv(gym.Env):
             command = np.minimum(np.maximum(command, self.joint_lower), self.joint_upper)
             return command, bool((inside != a).any())
         values = a.tolist()  # finite floats: min/max pick exactly what np.minimum/maximum would
-        command = [min(max(v, lo), hi) for v, lo, hi in zip(values, *self._joint_floats)]
+        command = [
+            min(max(v, lo), hi) for v, lo, hi in zip(values, *self._joint_floats, strict=True)
+        ]
         return np.array(command), command != values
 
     def _forward(self) -> None:
