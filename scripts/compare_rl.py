@@ -8,6 +8,8 @@
 Needs the ``rl`` extra (``pip install -e ".[rl]"``). Writes OUT/curves.jsonl (one line per
 method and seed, appended as each finishes; runs split over several invocations with the same
 OUT add up), and from all of it OUT/table.md and OUT/<env>_<sensing>_<control>.png.
+``--report-only`` rewrites the table and plots from OUT/curves.jsonl without training (no extra
+needed): ``scripts/compare_rl.py --report-only --out docs/compare_rl/project_kinematic``.
 """
 
 from __future__ import annotations
@@ -60,7 +62,15 @@ def main(argv: list[str] | None = None) -> list[Curve]:
         "--targets", type=cli.positive_int, default=1000, help="held-out targets per evaluation"
     )
     p.add_argument("--out", type=Path, default=Path("runs/compare_rl"))
+    p.add_argument(
+        "--report-only", action="store_true", help="table and plots from OUT/curves.jsonl only"
+    )
     args = p.parse_args(argv)
+    if args.report_only:
+        if not (args.out / "curves.jsonl").is_file():
+            raise SystemExit(f"--report-only: {args.out / 'curves.jsonl'} does not exist")
+        print(rl_report.report(args.out, args.targets))
+        return []
     import_torch_first().set_num_threads(TORCH_THREADS)
     args.out.mkdir(parents=True, exist_ok=True)
     points = checkpoints(args.budget, args.checkpoints)
