@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import operator
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -122,7 +123,4 @@ class ReachableWorkspace(Workspace):
 
 def _inside(values, lower: list[float], upper: list[float]) -> bool:
     """lower ≤ values ≤ upper in every entry (False for NaN, like the array comparisons)."""
-    for v, lo, hi in zip(values, lower, upper, strict=True):
-        if not lo <= v <= hi:
-            return False
-    return True
+    return all(map(operator.le, lower, values)) and all(map(operator.le, values, upper))

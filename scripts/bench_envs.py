@@ -5,13 +5,16 @@ RL loop.
     .venv/bin/python scripts/bench_envs.py [--steps 200] [--json runs/bench_envs.json]
     .venv/bin/python scripts/bench.py envs [same options]
     .venv/bin/python scripts/bench_envs.py --rl-only [--rl-steps 20000] [--rl-rounds 5]
+        [--rl-clock thread]
 
 RL loop: the loop of an RL library, on ``gym.make`` envs (their registered time limits and
 wrappers), random actions, ``reset()`` whenever an episode ends (every 4 moves for the reach
 envs, every 50 steps for Reacher-v5). ``RiacsReach-v0`` and ``PumaReach-v0`` (project,
 kinematic) and Reacher-v5 run in alternating rounds so that load from other processes falls on
 all of them; reported: transitions/s with the resets, steps/s without them, µs per reset, each
-with its ratio to Reacher-v5.
+with its ratio to Reacher-v5. ``--rl-clock thread`` times the loop in this thread's CPU time
+instead of wall time: on a shared machine it leaves out the time other processes take the core
+(they still slow it through shared caches and hyper-threads).
 
 Each row: construct the env (not timed), reset it (not timed: this also starts the renderers),
 then time ``--steps`` moves with random in-range commands drawn beforehand. The envs are stepped
@@ -23,6 +26,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import cli
@@ -120,25 +124,29 @@ def peer_steps_per_second(n_steps: int, seed: int) -> float | None:
 RL_ENVS = ("RiacsReach-v0", "PumaReach-v0")
 RL_SETTING = {"sensing": "project", "control": "kinematic"}
 US_PER_S = 1e6
+CLOCKS = {"wall": time.perf_counter, "thread": time.thread_time}  # s
 
 
-def rl_loop(env: gym.Env, actions: np.ndarray) -> tuple[float, float, int]:
-    """Seconds in total and in resets, and the number of resets, for one pass of ``actions``
-    (the first reset, which seeds the env, is not timed)."""
+def rl_loop(
+    env: gym.Env, actions: np.ndarray, clock: Callable[[], float] = time.perf_counter
+) -> tuple[float, float, int]:
+    """Seconds (of ``clock``) in total and in resets, and the number of resets, for one pass of
+    ``actions`` (the first reset, which seeds the env, is not timed)."""
     reset_s, resets = 0.0, 0
-    start = time.perf_counter()
+    start = clock()
     for action in actions:
         _, _, terminated, truncated, _ = env.step(action)
         if terminated or truncated:
-            t = time.perf_counter()
+            t = clock()
             env.reset()
-            reset_s += time.perf_counter() - t
+            reset_s += clock() - t
             resets += 1
-    return time.perf_counter() - start, reset_s, resets
+    return clock() - start, reset_s, resets
 
 
-def time_rl_loop(n_steps: int, rounds: int, seed: int) -> list[dict]:
-    """The RL loop for each of RL_ENVS and PEER_ID, ``rounds`` alternating passes each."""
+def time_rl_loop(n_steps: int, rounds: int, seed: int, clock: str = "wall") -> list[dict]:
+    """The RL loop for each of RL_ENVS and PEER_ID, ``rounds`` alternating passes each, timed
+    with ``CLOCKS[clock]``."""
     makers = {env_id: lambda e=env_id: gym.make(e, **RL_SETTING) for env_id in RL_ENVS}
     makers[PEER_ID] = lambda: gym.make(PEER_ID)
     envs_, actions, totals = {}, {}, {}
@@ -151,7 +159,7 @@ def time_rl_loop(n_steps: int, rounds: int, seed: int) -> list[dict]:
         totals[env_id] = np.zeros(3)  # total s, reset s, resets
     for _ in range(rounds):
         for env_id, env in envs_.items():
-            totals[env_id] += rl_loop(env, actions[env_id])
+            totals[env_id] += rl_loop(env, actions[env_id], CLOCKS[clock])
     rows = []
     for env_id, (total, reset, resets) in totals.items():
         steps = n_steps * rounds
@@ -162,6 +170,7 @@ def time_rl_loop(n_steps: int, rounds: int, seed: int) -> list[dict]:
                 "steps_per_s": steps / (total - reset),
                 "us_per_reset": reset / max(resets, 1) * US_PER_S,
                 "resets": int(resets),
+                "clock": clock,
             }
         )
         envs_[env_id].close()
@@ -176,7 +185,8 @@ def time_rl_loop(n_steps: int, rounds: int, seed: int) -> list[dict]:
 def format_rl_table(rows: list[dict]) -> str:
     lines = [
         f"RL loop (gym.make, random actions, reset at episode end; {RL_SETTING['sensing']}, "
-        f"{RL_SETTING['control']}); ratios against {PEER_ID} in the same run",
+        f"{RL_SETTING['control']}; {rows[0]['clock']} time); ratios against {PEER_ID} in the "
+        "same run",
         f"{'env':<15} {'transitions/s':>13} {'×peer':>6} {'steps/s':>9} {'×peer':>6} "
         f"{'µs/reset':>9} {'×peer':>6}",
     ]
@@ -267,6 +277,9 @@ def main(argv: list[str] | None = None) -> dict:
         "--rl-rounds", type=cli.positive_int, default=5, help="alternating RL-loop rounds"
     )
     parser.add_argument("--rl-only", action="store_true", help="only the RL loop")
+    parser.add_argument(
+        "--rl-clock", choices=tuple(CLOCKS), default="wall", help="RL loop: wall or thread time"
+    )
     parser.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = parser.parse_args(argv)
     results = (
@@ -274,7 +287,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     if results:
         print(format_table(results))
-    results["rl_loop"] = time_rl_loop(args.rl_steps, args.rl_rounds, args.seed)
+    results["rl_loop"] = time_rl_loop(args.rl_steps, args.rl_rounds, args.seed, args.rl_clock)
     print(format_rl_table(results["rl_loop"]))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
