@@ -36,6 +36,7 @@ WORKSPACE = ReachableWorkspace(
     upper=np.array([1.0, 1.0, 0.75]),
     ik=_ik,
     ik_point=_ik_point,
+    reach=ARM_REACH,  # the shoulder is the origin
     joint_lower=LOWER,
     joint_upper=UPPER,
 )
