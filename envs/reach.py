@@ -377,14 +377,17 @@ class ReachEnv(gym.Env):
         for name in set(self.spec_robot.markers.values()) - {keep}:
             self.model.geom_group[self.model.geom(name).id] = 5
 
-    def _check_action(self, action: np.ndarray) -> tuple[np.ndarray, bool]:
+    def _check_action(self, action: np.ndarray) -> tuple[np.ndarray | list[float], bool]:
+        """The command (J,) rad for the controlled joints, clipped into their ranges, and
+        whether it was clipped; ValueError for a wrong shape or a value that is not finite."""
         a = arguments.real_array("action", action)
         if a.shape != (self.joints,):
             raise ValueError(
                 f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "
                 f"got shape {a.shape}"
             )
-        if not all(map(math.isfinite, a.tolist())):
+        values = a.tolist()
+        if not all(map(math.isfinite, values)):
             bad = int(np.flatnonzero(~np.isfinite(a))[0])
             raise ValueError(f"action for joint{bad + 1} is {a[bad]}; commands must be finite")
         if self.normalize:  # [-1, 1] per joint -> its range
@@ -392,11 +395,11 @@ class ReachEnv(gym.Env):
             command = self._joint_mid + self._joint_half * inside
             command = np.minimum(np.maximum(command, self.joint_lower), self.joint_upper)
             return command, bool((inside != a).any())
-        values = a.tolist()  # finite floats: min/max pick exactly what np.minimum/maximum would
+        # Finite floats: min and max pick exactly what np.minimum and np.maximum would.
         command = [
             min(max(v, lo), hi) for v, lo, hi in zip(values, *self._joint_floats, strict=True)
         ]
-        return np.array(command), command != values
+        return command, command != values
 
     def _forward(self) -> None:
         """Positions from qpos: kinematic control needs only the kinematics and the cameras
@@ -407,7 +410,7 @@ class ReachEnv(gym.Env):
         else:
             mujoco.mj_forward(self.model, self.data)
 
-    def _move(self, command: np.ndarray) -> float:
+    def _move(self, command: np.ndarray | list[float]) -> float:
         if self.control == "kinematic":
             self.data.qpos[self._qpos] = command
             self.data.qvel[:] = 0.0
