@@ -380,7 +380,8 @@ class ReachEnv(gym.Env):
     def _check_action(self, action: np.ndarray) -> tuple[np.ndarray | list[float], bool]:
         """The command (J,) rad for the controlled joints, clipped into their ranges, and
         whether it was clipped; ValueError for a wrong shape or a value that is not finite."""
-        a = arguments.real_array("action", action)
+        real = isinstance(action, np.ndarray) and action.dtype.char in "fd"  # float32, float64
+        a = action if real else arguments.real_array("action", action)
         if a.shape != (self.joints,):
             raise ValueError(
                 f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "
@@ -476,8 +477,13 @@ class ReachEnv(gym.Env):
 
     def _observation(self) -> dict[str, np.ndarray]:
         # Servo moves overshoot a commanded limit by up to ~1e-4 rad: clipped into the space.
+        # Kinematic moves set the clipped command (reset: the in-range keyframe).
         lo, hi = np.maximum, np.minimum
-        joints = hi(lo(self.data.qpos[self._qpos], self.joint_lower), self.joint_upper)
+        joints = self.data.qpos[self._qpos]
+        if self.control == "kinematic":
+            joints = joints.copy()
+        else:
+            joints = hi(lo(joints, self.joint_lower), self.joint_upper)
         achieved, desired = self._last["effector"], self._last["target"]  # (4,) px, in the image
         if not self.normalize:
             return {
