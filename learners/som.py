@@ -435,15 +435,15 @@ class VisuomotorSOM(CompiledPath, Controller):
 
     def _coarse(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Unclipped coarse output (J,) and averaged A (J, D) for target u."""
-        sigma_out = self.params()[3]
-        r2 = self._grid.cutoff_radius2(sigma_out) if self.averaging == "neighbourhood" else 0
         if self.kernel == "numba":
-            table = self._grid.weights(sigma_out)
+            _, table, r2 = self._kernel_tables()  # σ' and its cut-off, kept until t moves them
             s = self._winner(u)
             theta, abar = np.empty(self.n_joints), np.empty((self.n_joints, self.input_dim))
             kernels.coarse(s, u, self._w, self._th, self._A, table, r2, self._shape, theta, abar)
             self._last_winner = (u.tobytes(), self._version, s)
             return theta, abar
+        sigma_out = self.params()[3]
+        r2 = self._grid.cutoff_radius2(sigma_out) if self.averaging == "neighbourhood" else 0
         s = self._winner(u)
         self._last_winner = (u.tobytes(), self._version, s)
         if r2 > 0:

@@ -47,9 +47,7 @@ class Workspace(ABC):
             return self._sample_one(rng)[None]
         out = np.empty((0, 3))
         while len(out) < n:
-            cand = rng.uniform(
-                self.lower, self.upper, size=(2 * (n - len(out)) + SPARE_CANDIDATES, 3)
-            )
+            cand = rng.uniform(self.lower, self.upper, size=(_round_size(n - len(out)), 3))
             out = np.concatenate([out, cand[self.contains(cand)]])
         return out[:n]
 
@@ -62,7 +60,7 @@ class Workspace(ABC):
         """
         (x0, y0, z0), (sx, sy, sz) = self._floats[0], self._floats[1]
         while True:
-            u = rng.random(3 * (2 + SPARE_CANDIDATES)).tolist()
+            u = rng.random(3 * _round_size(1)).tolist()
             for i in range(0, len(u), 3):
                 x, y, z = x0 + sx * u[i], y0 + sy * u[i + 1], z0 + sz * u[i + 2]
                 if self.contains_point(x, y, z):
@@ -129,6 +127,11 @@ class ReachableWorkspace(Workspace):
     @cached_property
     def _joint_floats(self) -> tuple[list[float], list[float]]:
         return self.joint_lower.tolist(), self.joint_upper.tolist()
+
+
+def _round_size(missing: int) -> int:
+    """Candidates one sampling round draws for ``missing`` points."""
+    return 2 * missing + SPARE_CANDIDATES
 
 
 def _inside(values, lower: list[float], upper: list[float]) -> bool:
