@@ -8,7 +8,9 @@ simulation state) and metrics.jsonl of an unbroken run, exactly.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -92,21 +94,43 @@ def _signalled_run(
     the stopped processes. A signal falls, with probability STARTUP_SHARE, at a moment drawn
     uniformly from (0, ``startup``) s after the process started (imports, building the env,
     reading the checkpoint), else from (0, 2·``share``) s after it took the run folder's lock
-    (trials, evaluations, saves)."""
+    (trials, evaluations, saves).
+
+    For a difference to be traced, every process's starting checkpoint is kept in
+    ``OUT-starts/`` and a line per process (start trial, signal, moment, exit status) is
+    appended to ``OUT.log``.
+    """
     statuses: list[int] = []
+    starts = out.parent / f"{out.name}-starts"
+    starts.mkdir(parents=True, exist_ok=True)
     while True:
+        k, start = len(statuses), "fresh"
+        if (out / "som.npz").is_file():
+            shutil.copy(out / "som.npz", starts / f"{k:03d}.npz")
+            with np.load(starts / f"{k:03d}.npz") as z:
+                run = json.loads(str(z["run"]))
+            start = f"trial {run['trial']}" + (
+                " (evaluation pending)" if run["pending_eval"] else ""
+            )
         process = subprocess.Popen(
             _command(out, options), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=_env()
         )
+        sent = "no signal"
         if len(statuses) < n_signals:
             early, fraction = rng.random() < STARTUP_SHARE, rng.random()
             ready = early or _working(process, out)
+            delay = fraction * (startup if early else 2 * share)
             try:
-                process.wait(timeout=fraction * (startup if early else 2 * share))
+                process.wait(timeout=delay)
             except subprocess.TimeoutExpired:
                 if ready:
-                    process.send_signal(SIGNALS[int(rng.integers(len(SIGNALS)))])
+                    sig = SIGNALS[int(rng.integers(len(SIGNALS)))]
+                    process.send_signal(sig)
+                    phase = "start" if early else "lock"
+                    sent = f"{sig.name} {delay:.3f} s after its {phase}"
         _, err = process.communicate(timeout=300)
+        with open(out.parent / f"{out.name}.log", "a") as log:
+            log.write(f"process {k}: from {start}, {sent}, exit {process.returncode}\n")
         if process.returncode == 0:
             return statuses
         # SIGINT while the interpreter itself starts: a KeyboardInterrupt, status 1.
@@ -137,8 +161,11 @@ def _check_setting(tmp_path: Path, name: str, options: list[str], n_signals: int
         runs += 1
         found = _contents(out)
         assert sorted(found) == sorted(expected), name
+        trace = f"processes in {out}.log, their starting checkpoints in {out}-starts"
         for key in expected:
-            np.testing.assert_array_equal(found[key], expected[key], err_msg=f"{name}: {key}")
+            np.testing.assert_array_equal(
+                found[key], expected[key], err_msg=f"{name}: {key}; {trace}"
+            )
         assert (out / "metrics.jsonl").read_bytes() == metrics, name
     counts = {code: statuses.count(code) for code in sorted(set(statuses))}
     return f"{name}: {len(statuses)} signals, {runs} runs, exit statuses {counts}"
