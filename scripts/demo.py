@@ -1,5 +1,6 @@
 """The main job, end to end and headless: train the visuomotor SOM on both arms, evaluate it
-with rendered camera sensing and servo control, and write plots, a video and camera images.
+with exact projection and kinematic moves and with rendered (foveated) cameras and servo moves,
+and write plots, a video and camera images.
 
     .venv/bin/python scripts/demo.py --out runs/demo          (what `make demo` runs; ~3 minutes)
 """
@@ -60,7 +61,7 @@ def main(argv: list[str] | None = None) -> None:
         # --force: a demo run starts over in its folder (make demo twice gives the same files)
         train.main(["--env", env_id, "--trials", str(args.trials), "--out", str(run),
                     "--eval-trials", "100", "--force"])  # fmt: skip
-        for sensing, control in (("project", "kinematic"), ("render", "servo")):
+        for sensing, control in (("project", "kinematic"), ("foveated", "servo")):
             print(f"\n-- {env_id}: evaluation with sensing={sensing}, control={control} --")
             summary = evaluate.main(["--run", str(run), "--targets", str(args.targets),
                                      "--sensing", sensing, "--control", control,

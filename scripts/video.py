@@ -11,6 +11,7 @@ import cli
 import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
+from envs.reach import SENSING_MODES
 from envs.trials import Trial, run_trial
 from envs.video import VideoWriter, annotate
 
@@ -27,7 +28,7 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument("--trials", type=cli.positive_int, default=4)
     parser.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
     parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
-    parser.add_argument("--sensing", default="render", choices=("render", "project"))
+    parser.add_argument("--sensing", default="foveated", choices=SENSING_MODES)
     parser.add_argument("--control", default="servo", choices=("servo", "kinematic"))
     parser.add_argument("--fps", type=cli.positive_float, default=6.0)
     parser.add_argument("--out", type=Path, default=Path("runs/video/eval.mp4"))
