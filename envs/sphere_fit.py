@@ -115,7 +115,7 @@ def outline_residual_px(
 
 def locate(
     outlines: Sequence[CameraOutline | None], radius: float, triangulate
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The sphere centre's image in each camera from what the cameras saw.
 
     The fit uses every camera with enough outline points; if one of them is then not trusted
@@ -135,8 +135,10 @@ def locate(
         radius: the sphere's radius, m.
         triangulate: (1, 4) px -> (1, 3) world (the rig's), for the first guess.
     Returns:
-        pixels (2 * cameras,) (NaN where not trusted), trusted (cameras,) bool. See the module
-        constants for when a camera's sighting is trusted.
+        pixels (2 * cameras,) (NaN where not trusted), trusted (cameras,) bool, and the fitted
+        centre C (3,) m of the trusted cameras' fit (NaN if none is trusted; from one camera,
+        its distance rests on the outline's size alone). See the module constants for when a
+        camera's sighting is trusted.
     """
     n = len(outlines)
     pixels, trusted = np.full(2 * n, np.nan), np.zeros(n, dtype=bool)
@@ -150,11 +152,11 @@ def locate(
             for k in used:
                 pixels[2 * k : 2 * k + 2] = outlines[k].camera.project(result[0][None])[0]
                 trusted[k] = True
-            return pixels, trusted
+            return pixels, trusted, result[0]
         kept = [k for k in used if ok[k]]
         # None trusted: the camera that saw least may have spoilt the fit; try without it.
         used = kept or sorted(used, key=lambda k: outlines[k].area)[1:]
-    return pixels, trusted
+    return pixels, trusted, np.full(3, np.nan)
 
 
 def _fit(

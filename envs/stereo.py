@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 
@@ -169,6 +170,16 @@ class CameraPair:
         return np.stack(triangulate_elementwise(cameras, q.T, normalized), axis=-1)
 
 
+class SphereSighting(NamedTuple):
+    """What :meth:`StereoRig.sense_sphere` found of a sphere in both views."""
+
+    pixels: np.ndarray  # (4,) px of the centre's image in the base images, NaN where not seen
+    visible: np.ndarray  # (2,) bool, the sighting is trusted (see StereoRig.sense)
+    framed: np.ndarray  # (2,) bool, the view shows the blob clear of its border
+    blank: np.ndarray  # (2,) bool, the view shows no blob of the sphere's colour (find_blob)
+    centre: np.ndarray  # (3,) m, the centre fitted to the trusted views (NaN if none)
+
+
 class StereoRig(CameraPair):
     """The scene's two cameras (default ``cam_left``, ``cam_right``) at one image size.
 
@@ -264,17 +275,19 @@ class StereoRig(CameraPair):
         marker: MarkerColour,
         radius: float,
         windows: Sequence[Window] | None = None,
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`sense` of a sphere of known ``radius`` (m), also returning framed (2,) bool:
-        which views show its blob clear of their border (a larger view would show no more of
-        it)."""
+    ) -> SphereSighting:
+        """:meth:`sense` of a sphere of known ``radius`` (m), with what else the views showed
+        (:class:`SphereSighting`): which views show its blob clear of their border (a larger
+        view would show no more of it), which show none of it, and the fitted centre."""
         views, images = self._render(data, marker, windows)
         outlines = [
             _outline(rgb, depth, marker, cam, view.window, radius)
             for (rgb, depth), cam, view in zip(images, self.cameras, views, strict=True)
         ]
-        pixels, visible = locate([o for o, _ in outlines], radius, self.triangulate)
-        return pixels, visible, np.array([framed for _, framed in outlines])
+        pixels, visible, centre = locate([o for o, _ in outlines], radius, self.triangulate)
+        framed = np.array([framed for _, framed in outlines])
+        blank = np.array([o is None for o, _ in outlines])
+        return SphereSighting(pixels, visible, framed, blank, centre)
 
     def _render(
         self, data, marker: MarkerColour, windows: Sequence[Window] | None

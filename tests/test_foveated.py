@@ -131,3 +131,51 @@ def test_windows_draw_what_whole_images_draw_about_the_marker(env_id):
             np.testing.assert_array_equal(a, b)
         compared += 1
     env.close()
+
+
+def _plate_over_left_camera(model, data):
+    """The rig's plate half-way along the left camera's ray to the marker, covering it whole
+    from that camera and not at all from the right one."""
+    sight = (CENTRE + np.array([0.3, 0.0, 1.0])) / 2  # on the left camera's ray, half-way
+    data.mocap_pos[0] = sight + np.array([0.2 - 0.05, 0.0, 0.0])  # edge 5 cm past the ray
+    mujoco.mj_forward(model, data)
+
+
+def test_a_marker_hidden_from_one_camera_inside_its_window_is_not_looked_for_again(rig):  # noqa: F811
+    """The left window shows none of the marker where the right camera's sighting puts it: no
+    whole images are rendered, and they would not have found it either."""
+    model, data, stereo = rig
+    bar = model.geom("bar").id
+    size = model.geom_size[bar].copy()
+    model.geom_size[bar] = (0.2, 0.2, 0.005)
+    _plate_over_left_camera(model, data)
+    projected = stereo.project(CENTRE[None])[0]
+    fovea = FoveatedSensing(stereo)
+    guess = projected + np.array([1.0, -0.5, -1.0, 0.8])  # a prediction a pixel off
+    pixels, visible = fovea.sense(data, GREEN_EFFECTOR, RADIUS, guess)
+    _, seen = stereo.sense(data, GREEN_EFFECTOR, RADIUS)
+    model.geom_size[bar] = size
+    assert fovea.fallbacks == 0
+    assert visible.tolist() == seen.tolist() == [False, True]
+    np.testing.assert_allclose(pixels[2:], projected[2:], atol=0.05)
+
+
+@pytest.mark.parametrize("shift", [0.3, 0.4])
+def test_a_window_misplaced_along_the_other_cameras_ray_falls_back(rig, shift):  # noqa: F811
+    """Expected 30 or 40 cm nearer along the right camera's ray: the right window sees the
+    marker where expected, the left one is misplaced and empty; the whole images find it."""
+    model, data, stereo = rig
+    data.mocap_pos[0] = FAR
+    mujoco.mj_forward(model, data)
+    right = stereo.cameras[1].position
+    ray = (CENTRE - right) / np.linalg.norm(CENTRE - right)
+    guess = stereo.project((CENTRE + shift * ray)[None])[0]
+    projected = stereo.project(CENTRE[None])[0]
+    np.testing.assert_allclose(guess[2:], projected[2:], atol=1e-9)
+    fovea = FoveatedSensing(stereo)
+    windows = fovea.windows(guess, RADIUS)
+    first = stereo.sense_sphere(data, GREEN_EFFECTOR, RADIUS, windows)
+    assert first.visible.tolist() == [False, True] and first.blank[0]  # the case in question
+    pixels, visible = fovea.sense(data, GREEN_EFFECTOR, RADIUS, guess)
+    assert visible.all() and fovea.fallbacks == 1
+    np.testing.assert_allclose(pixels, projected, atol=0.05)
