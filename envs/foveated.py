@@ -82,8 +82,8 @@ class FoveatedSensing:
                 out.append(full)
                 continue
             size = min(2 * (major[k] + self.margin), st.width, st.height)  # base px
-            left = float(np.clip(uv[0] - size / 2, -0.5, st.width - 0.5 - size))
-            top = float(np.clip(uv[1] - size / 2, -0.5, st.height - 0.5 - size))
+            left = min(max(float(uv[0]) - size / 2, -0.5), st.width - 0.5 - size)
+            top = min(max(float(uv[1]) - size / 2, -0.5), st.height - 0.5 - size)
             pixels = min(int(np.ceil(size * self.density)), st.height)  # fits the buffer
             out.append(Window(left, top, pixels, pixels, pixels / size, depth[k]))
         return out

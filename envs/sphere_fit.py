@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from envs import sensing_kernels
+
 #: Gauss-Newton iterations, and the step (m) below which the fit has converged.
 MAX_ITERATIONS, CONVERGED_STEP = 20, 1e-7
 #: Outline points farther than this (px) from the fitted outline are dropped and the fit redone
@@ -67,6 +69,7 @@ def fit_centre(
     smaller than the sphere (its darkest rim pixels drop out), and a fixed R would turn that
     into a wrong distance and so a wrong centre in both images. The distance then comes from the
     two views (triangulation) and R sets the outline's size in each. With one camera R is fixed.
+    With numba (``sensing_kernels.ENABLED``) the iterations run compiled.
     """
     centres = np.concatenate(
         [np.broadcast_to(o, d.shape) for o, d in zip(origins, directions, strict=True)]
@@ -74,6 +77,10 @@ def fit_centre(
     D = np.concatenate(directions)  # (m, 3)
     x = np.append(np.asarray(start, dtype=float), radius)  # (C, R)
     free = 4 if len(origins) > 1 else 3
+    if sensing_kernels.ENABLED:
+        fitted, ok = sensing_kernels.fit_centre(centres, D, x, free, MAX_ITERATIONS, CONVERGED_STEP)
+        if ok:  # else singular normal equations: the numpy path's least squares
+            return fitted[:3], float(fitted[3])
     for _ in range(MAX_ITERATIONS):
         v = x[:3] - centres  # (m, 3) from each ray's camera centre
         tangent = np.sqrt(np.maximum(np.einsum("ij,ij->i", v, v) - x[3] ** 2, 1e-12))  # (m,)
@@ -99,6 +106,10 @@ def outline_residual_px(
     along the outline's normal through that point (negative inside); ``d`` (m, 3): the points'
     :func:`rays`, if known."""
     d = rays(camera, uv) if d is None else d
+    if sensing_kernels.ENABLED:
+        return sensing_kernels.outline_residual_px(
+            camera.pixel_projection, camera.position, centre, radius, uv, d
+        )
     axis = centre - camera.position
     dist = np.linalg.norm(axis)
     axis = axis / dist

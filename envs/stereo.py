@@ -84,12 +84,13 @@ class PinholeCamera:
         return K @ np.hstack([M, -M @ self.position[:, None]])
 
     @cached_property
-    def _pixel_projection(self) -> np.ndarray:
-        return self.projection_matrix()  # (3, 4)
+    def pixel_projection(self) -> np.ndarray:
+        """P (3, 4) in pixels (:meth:`projection_matrix`), computed once."""
+        return self.projection_matrix()
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """World points (N, 3) -> pixels (N, 2)."""
-        P = self._pixel_projection
+        P = self.pixel_projection
         h = np.atleast_2d(np.asarray(points, dtype=float)) @ P[:, :3].T + P[:, 3]  # (N, 3)
         return h[:, :2] / h[:, 2:3]
 

@@ -24,6 +24,8 @@ from envs.rendering import SENSING_OFF_FLAGS, check_gl_allowed, gl_start_error, 
 #: slower, since the robot's cylinders and capsules get as many triangles.
 SPHERE_SLICES = 36
 SPHERE_STACKS = 18
+#: mjtGeom values of the capsule and the cylinder (bounded by capsules, see _bounding_capsules).
+mjGEOM_CAPSULE, mjGEOM_CYLINDER = 3, 5
 #: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
 SQUARE_PIXEL_TOL = 1e-5
 
@@ -37,10 +39,11 @@ class Window:
     ``height`` its size in window pixels. Window pixel (i, j) has its centre at base
     (left + (j + 0.5) / density, top + (i + 0.5) / density).
 
-    A window draws only the geoms that can reach into it: those whose bounding sphere meets its
-    frustum, nearer than ``depth`` (m along the optical axis). Sensing a marker at most that
-    deep gives the same result: a geom wholly behind it can neither hide it nor change its
-    outline (an edge against anything farther counts as the sphere's own edge either way).
+    A window draws only the geoms that can reach into it: those whose bounding capsule (a
+    link's own, or a bounding sphere) meets its frustum, nearer than ``depth`` (m along the
+    optical axis). Sensing a marker at most that deep gives the same result: a geom wholly
+    behind it can neither hide it nor change its outline (an edge against anything farther
+    counts as the sphere's own edge either way).
     """
 
     left: float
@@ -173,15 +176,14 @@ class ViewportRenderer:
             mujoco.mjtCatBit.mjCAT_ALL, scene,
         )  # fmt: skip
         geoms, ids = self._model_geoms(tuple(groups))
-        centres, reach = data.geom_xpos[ids], self.model.geom_rbound[ids]
-        reach = np.where(reach > 0, reach, np.inf)  # planes have no bounding sphere (rbound 0)
+        ends, reach = _bounding_capsules(self.model, data, ids)
         for k, view in enumerate(views):
             if k > 0:
                 mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
             hidden = []
             if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
                 _set_frustum(scene, view)
-                hidden = _hide_outside(scene, geoms, centres, reach, view.window.depth)
+                hidden = _hide_outside(scene, geoms, ends, reach, view.window.depth)
             w = view.window
             mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, self._context)
             for geom, kind in hidden:
@@ -230,12 +232,30 @@ def _set_frustum(scene, view: View) -> None:
         glcam.frustum_bottom = (cv - bottom) / fv * near
 
 
-def _hide_outside(scene, geoms: list, centres: np.ndarray, reach: np.ndarray, depth: float) -> list:
-    """Hide (type NONE) those of ``geoms`` (MjvGeoms of ``scene``, bounding spheres at
-    ``centres`` (n, 3) m of radii ``reach`` (n,) m) that lie wholly outside the frustum of the
+def _bounding_capsules(model, data, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Capsules that contain the geoms ``ids`` (n,): segment ends (n, 2, 3) m and radii (n,) m.
+
+    A capsule or cylinder is bounded by the capsule of its own radius about its axis (a long
+    link's bounding sphere would reach far beyond it); any other geom by its bounding sphere
+    (both ends at its centre), a plane (no bounding sphere, rbound 0) by an infinite one."""
+    centres = data.geom_xpos[ids]  # (n, 3)
+    axes = data.geom_xmat[ids][:, 2::3]  # (n, 3) the geoms' local z axes in world
+    size = model.geom_size[ids]
+    kind = model.geom_type[ids]
+    long = (kind == mjGEOM_CAPSULE) | (kind == mjGEOM_CYLINDER)
+    half = np.where(long, size[:, 1], 0.0)[:, None] * axes  # (n, 3)
+    ends = np.stack([centres - half, centres + half], axis=1)
+    reach = np.where(long, size[:, 0], model.geom_rbound[ids])
+    return ends, np.where(reach > 0, reach, np.inf)
+
+
+def _hide_outside(scene, geoms: list, ends: np.ndarray, reach: np.ndarray, depth: float) -> list:
+    """Hide (type NONE) those of ``geoms`` (MjvGeoms of ``scene``, inside capsules of segment
+    ``ends`` (n, 2, 3) m and radii ``reach`` (n,) m) that lie wholly outside the frustum of the
     scene's camera (after :func:`_set_frustum`: the window's) or beyond ``depth`` (m along the
     optical axis); returns (geom, type) pairs to restore. Such a geom draws no pixel in the
-    window (or none that matters, see :class:`Window`), but costs its triangles."""
+    window (or none that matters, see :class:`Window`), but costs its triangles. A capsule is
+    outside a plane when both ends are farther than its radius on the outer side."""
     import mujoco
 
     cam = scene.camera[0]
@@ -249,8 +269,9 @@ def _hide_outside(scene, geoms: list, centres: np.ndarray, reach: np.ndarray, de
         [[near, 0, -left], [-near, 0, right_], [0, near, -bottom], [0, -near, top], [0, 0, 1.0]]
     )
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    local = (centres - np.asarray(cam.pos)) @ basis.T  # (n, 3) camera coordinates, m
-    outside = (local @ normals.T < -reach[:, None]).any(1) | (local[:, 2] - reach > depth)
+    local = (ends - np.asarray(cam.pos)) @ basis.T  # (n, 2, 3) camera coordinates, m
+    side = (local @ normals.T).max(axis=1)  # (n, 5) the nearer end's distance inside each plane
+    outside = (side < -reach[:, None]).any(1) | (local[:, :, 2].min(1) - reach > depth)
     hidden = [(geoms[i], geoms[i].type) for i in np.flatnonzero(outside)]
     for g, _ in hidden:
         g.type = mujoco.mjtGeom.mjGEOM_NONE
