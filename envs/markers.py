@@ -36,10 +36,13 @@ class MarkerColour:
 
     def mask(self, rgb: np.ndarray) -> np.ndarray:
         hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
-        mask = np.zeros(rgb.shape[:2], dtype=np.uint8)
-        for lo, hi in self.hue_ranges:
-            mask |= cv2.inRange(hsv, (lo, self.min_saturation, self.min_value), (hi, 255, 255))
-        return mask
+        masks = [
+            cv2.inRange(hsv, (lo, self.min_saturation, self.min_value), (hi, 255, 255))
+            for lo, hi in self.hue_ranges
+        ]
+        for other in masks[1:]:
+            masks[0] |= other
+        return masks[0]
 
 
 RED_TARGET = MarkerColour("target", True, ((0, 8), (172, 179)))
