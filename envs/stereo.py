@@ -168,6 +168,11 @@ class CameraPair:
         """
         q = np.atleast_2d(np.asarray(pixels, dtype=float))  # (N, 4)
         cameras = [camera_floats(c) for c in self.cameras]
+        if len(q) == 1:  # one point in Python floats: the same bits, 20 times faster
+            try:
+                return np.array([triangulate_elementwise(cameras, q[0].tolist(), normalized)])
+            except ZeroDivisionError:  # degenerate cameras: the arrays' inf and NaN
+                pass
         return np.stack(triangulate_elementwise(cameras, q.T, normalized), axis=-1)
 
 

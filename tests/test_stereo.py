@@ -119,6 +119,17 @@ def test_triangulate_of_a_single_point_returns_one_row():
     np.testing.assert_allclose(e.stereo.triangulate(e.stereo.project(p)[0]), [p], atol=1e-9)
 
 
+def test_a_single_point_triangulates_to_the_same_bits_as_in_a_batch():
+    """One point takes the Python-float path, a batch the arrays': the same bits."""
+    e = ReachEnv(robot="puma560", sensing="project", control="kinematic")
+    q = np.random.default_rng(6).uniform(0, 320, (200, 4))
+    q[0, 1] = np.nan
+    for normalized, scale in ((False, 1.0), (True, 1 / 300)):
+        batch = e.stereo.triangulate(q * scale, normalized)
+        single = np.concatenate([e.stereo.triangulate(x[None] * scale, normalized) for x in q])
+        np.testing.assert_array_equal(single, batch)
+
+
 # -- rendered sensing ---------------------------------------------------------------------------
 
 
