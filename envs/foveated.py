@@ -9,9 +9,18 @@ controller aims at); if it is not found there, both whole base images are render
 windows are placed where the whole images found it. A window that shows none of the marker
 while the other camera's sighting places it inside that window has shown where it is (hidden
 behind the robot), so the whole images are not rendered for it (:meth:`FoveatedSensing.hidden`).
+
+Every window lies on one grid of 1/density base pixels (its edges and its pixels), wherever it is
+placed: a sphere at one place is drawn on the same pixels, so it is sensed at the same pixels
+whichever prediction placed its window. The marker that reaches the target is then sensed where
+the target was (both are spheres of one radius, in mirrored colours), and a controller that
+servos the marker's pixels onto the target's cancels the share of the sensing error the two have
+in common (the part the robot's links hide of the marker stays its own).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -81,12 +90,20 @@ class FoveatedSensing:
             if not np.all(np.isfinite(uv)):
                 out.append(full)
                 continue
-            size = min(2 * (major[k] + self.margin), st.width, st.height)  # base px
-            left = min(max(float(uv[0]) - size / 2, -0.5), st.width - 0.5 - size)
-            top = min(max(float(uv[1]) - size / 2, -0.5), st.height - 0.5 - size)
-            pixels = min(int(np.ceil(size * self.density)), st.height)  # fits the buffer
-            out.append(Window(left, top, pixels, pixels, pixels / size, depth[k]))
+            wanted = min(2 * (major[k] + self.margin), st.width, st.height)  # base px
+            pixels = min(math.ceil(wanted * self.density), st.height)  # fits the buffer
+            size = pixels / self.density  # base px, so that the window's density is exact
+            left = self._on_grid(float(uv[0]) - size / 2, size, st.width)
+            top = self._on_grid(float(uv[1]) - size / 2, size, st.height)
+            out.append(Window(left, top, pixels, pixels, self.density, depth[k]))
         return out
+
+    def _on_grid(self, edge: float, size: float, extent: int) -> float:
+        """The window edge (base px) nearest ``edge`` on the grid of 1/density base px that
+        starts at the image's edge (-0.5), with the window inside [-0.5, extent - 0.5]."""
+        steps = round((edge + 0.5) * self.density)
+        last = math.floor((extent - size) * self.density + 1e-9)  # the last edge inside
+        return -0.5 + min(max(steps, 0), last) / self.density
 
     def sense(
         self, data, marker, radius: float, expected: np.ndarray | None = None

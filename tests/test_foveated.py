@@ -179,3 +179,25 @@ def test_a_window_misplaced_along_the_other_cameras_ray_falls_back(rig, shift): 
     pixels, visible = fovea.sense(data, GREEN_EFFECTOR, RADIUS, guess)
     assert visible.all() and fovea.fallbacks == 1
     np.testing.assert_allclose(pixels, projected, atol=0.05)
+
+
+def test_a_sphere_is_sensed_at_the_same_pixels_wherever_its_window_was_placed(rig):  # noqa: F811
+    """Windows on one grid of 1/density base px: the same sphere gives the same pixels for any
+    prediction inside the margin (off the grid the sub-pixel phase moves them by ~0.01 px)."""
+    model, data, stereo = rig
+    data.mocap_pos[0] = FAR
+    mujoco.mj_forward(model, data)
+    projected = stereo.project(CENTRE[None])[0]
+    fovea = FoveatedSensing(stereo)
+    rng = np.random.default_rng(3)
+    sensed = []
+    for _ in range(6):
+        guess = projected + rng.uniform(-3.0, 3.0, size=4)  # inside FOVEA_MARGIN_PX
+        for window in fovea.windows(guess, RADIUS):
+            phase = (np.array([window.left, window.top]) + 0.5) * window.density
+            np.testing.assert_allclose(phase, np.round(phase), atol=1e-9)
+        pixels, visible = fovea.sense(data, GREEN_EFFECTOR, RADIUS, guess)
+        assert visible.all() and fovea.fallbacks == 0
+        sensed.append(pixels)
+    spread = np.ptp(np.array(sensed), axis=0)
+    assert spread.max() < 1e-6, f"the same sphere was sensed {spread.max():.2g} px apart"
