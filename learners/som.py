@@ -10,9 +10,14 @@ Moving (``act``):
     coarse   θ0 = Σ_r g_r (θ_r + A_r (u − w_r)) / Σ_r g_r,  g_r = exp(−|r − s|² / 2σ'²)
              (MRS 1990; ``averaging="winner"``: g_r = δ_rs, MRS 1989 and Brause 3.7)
     fine     θ_{k+1} = θ_k + Ā (u − v_k),  Ā = Σ_r g_r A_r / Σ_r g_r, v_k sensed after θ_k
+             ``abar="local-fit"`` (not in the papers): Ā is instead the value at u of a linear
+             field fitted to the A_r of the winner's lattice box (``learners/local_fit.py``);
+             exploratory (training) fine moves keep the average, so the map learned is the
+             same with either; ``abar="average"`` is the MRS Ā.
              ``refine=True`` (not in the papers): from the second fine move on, Ā first takes
              the Widrow-Hoff step of the previous fine move, Ā += (Δθ − ĀΔv)Δv^T/|Δv|² (a
              Broyden update); ``refine=False`` keeps Ā fixed as MRS do.
+             MRS's published moves are ``abar="average", refine=False``.
 
 Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δv = v1 − v0:
     w_r += ε h_rs (u − w_r),    h_rs = exp(−|r − s|² / 2σ²)     (Brause 3.5 with the Gaussian
@@ -86,6 +91,7 @@ from learners import kernels
 from learners.base import Controller, check_pixels
 from learners.guards import InputBox, check_finite
 from learners.lattice import Lattice
+from learners.local_fit import local_abar
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.schedules import Continual, ErrorMonitor, Schedule, harmonic
 from learners.som_compiled import PRUNED_SEARCH_MIN, CompiledPath
@@ -94,6 +100,8 @@ RULES = ("mrs", "brause")
 #: Trial protocols (see the module docstring): MRS with this project's additions, or Brause §3.
 PROTOCOLS = ("mrs", "brause")
 AVERAGING = ("neighbourhood", "winner")
+#: Ā of the fine moves: MRS's σ'-average of the A_r, or this project's local fit at u.
+ABAR = ("average", "local-fit")
 KERNELS = ("auto", "numba", "numpy")
 KIND = "VisuomotorSOM"
 FORMAT_VERSION = 1
@@ -183,6 +191,8 @@ class VisuomotorSOM(CompiledPath, Controller):
         rule: "mrs" or "brause": the θ* the outputs learn towards.
         averaging: "neighbourhood" (outputs averaged with width σ') or "winner".
         refine: correct Ā between fine moves of one target (Broyden step; see module notes).
+        abar: Ā of the fine moves, "average" (MRS) or "local-fit" (this project's, at the
+            target; exploratory fine moves keep the average); see module notes.
         t_max: trials over which the schedules fall from their initial to their final value.
         eps, sigma: ε(t) and σ(t) of the w update (σ in lattice units).
         eps_out, sigma_out: ε'(t), σ'(t) of the θ/A update and of the output averaging.
@@ -217,6 +227,7 @@ class VisuomotorSOM(CompiledPath, Controller):
         rule: str = "mrs",
         averaging: str = "neighbourhood",
         refine: bool = True,
+        abar: str = "local-fit",
         t_max: int = DEFAULT_T_MAX,
         eps: ScheduleLike = DEFAULT_EPS,
         sigma: ScheduleLike = DEFAULT_SIGMA,
@@ -241,6 +252,8 @@ class VisuomotorSOM(CompiledPath, Controller):
             raise ValueError(f"unknown rule {rule!r}; valid rules: {', '.join(RULES)}")
         if averaging not in AVERAGING:
             raise ValueError(f"unknown averaging {averaging!r}; valid: {', '.join(AVERAGING)}")
+        if abar not in ABAR:
+            raise ValueError(f"unknown abar {abar!r}; valid: {', '.join(ABAR)}")
         self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
         self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
         check_finite(joint_lower=self.lower, joint_upper=self.upper, a_init=a_init, min_dv=min_dv)
@@ -259,6 +272,7 @@ class VisuomotorSOM(CompiledPath, Controller):
             )
         self.input_dim, self.t_max = int(input_dim), int(t_max)
         self.rule, self.averaging, self.refine = rule, averaging, bool(refine)
+        self.abar = abar
         self.eps, self.sigma = Schedule.of(eps), Schedule.of(sigma)
         self.eps_out, self.sigma_out = Schedule.of(eps_out), Schedule.of(sigma_out)
         self.explore = Schedule.of(explore)
@@ -489,6 +503,8 @@ class VisuomotorSOM(CompiledPath, Controller):
                 raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
             if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
                 self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
+            if self._v is None and not explore and self.abar == "local-fit":
+                self._abar = self._local_abar(u)
             if self.refine and self._v is not None:
                 dv = v - self._v
                 dv2 = float(dv @ dv)
@@ -501,6 +517,12 @@ class VisuomotorSOM(CompiledPath, Controller):
             self._v, self._cmd_before = v.copy(), self._cmd
         self._cmd = self._clip(theta)
         return self._cmd.copy()
+
+    def _local_abar(self, u: np.ndarray) -> np.ndarray:
+        """Ā (J, D) of the local fit at target u (``learners/local_fit.py``)."""
+        memo = self._last_winner
+        same = memo[0] == u.tobytes() and memo[1] == self._version
+        return local_abar(self._grid, memo[2] if same else self._winner(u), u, self._w, self._A)
 
     def _act_brause(self, u: np.ndarray, v: np.ndarray | None) -> np.ndarray:
         """Brause §3: coarse Θ_c, fine Θ_c + A_c (u − w_c) (3.7); v is not used (may be NaN)."""
@@ -688,6 +710,7 @@ class VisuomotorSOM(CompiledPath, Controller):
             "rule": self.rule,
             "averaging": self.averaging,
             "refine": self.refine,
+            "abar": self.abar,
             "t_max": self.t_max,
             "schedules": {
                 k: [getattr(self, k).initial, getattr(self, k).final]
@@ -738,6 +761,7 @@ class VisuomotorSOM(CompiledPath, Controller):
                 rule=config["rule"],
                 averaging=config["averaging"],
                 refine=config["refine"],
+                abar=config.get("abar", "local-fit"),  # files from before the option: default
                 t_max=config["t_max"],
                 rng=0,
                 input_low=arrays["input_low"],

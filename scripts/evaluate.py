@@ -24,7 +24,7 @@ from envs.evaluation import evaluate
 from envs.reach import SENSING_MODES
 from envs.rendering import render_camera
 from envs.training import MAP_FILE, METRICS_FILE, Trainer
-from learners.som import VisuomotorSOM
+from learners.som import ABAR, VisuomotorSOM
 
 from controllers import REACH_ENVS, SPECS, Ticking, make_controller
 
@@ -55,7 +55,12 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument(
         "--no-refine",
         action="store_true",
-        help="SOM fine moves without the Broyden step (as MRS publish it)",
+        help="SOM fine moves as MRS publish them: the averaged Ā, no Broyden step",
+    )
+    p.add_argument(
+        "--abar",
+        choices=ABAR,
+        help="Ā of a SOM's fine moves (default: the map's; --no-refine: average)",
     )
     args = p.parse_args(argv)
     if (args.run is None) == (args.controller is None):
@@ -78,13 +83,15 @@ def main(argv: list[str] | None = None) -> dict:
         if isinstance(controller, VisuomotorSOM):
             controller.protocol = args.protocol or controller.protocol
             controller.refine = controller.refine and not args.no_refine
+            controller.abar = args.abar or ("average" if args.no_refine else controller.abar)
         env.reset(seed=args.seed)  # the same held-out targets for every controller
         ticking = Ticking(controller, cli.progress(range(args.targets), spec, "target"))
         result = evaluate(env, ticking, args.targets, args.fine_moves)
         name = spec
         if isinstance(controller, VisuomotorSOM):
-            refine = "+refine" if controller.refine and controller.protocol == "mrs" else ""
-            name = f"som {controller.protocol}{refine}"
+            name = f"som {controller.protocol}"
+            if controller.protocol == "mrs":
+                name += "+fit" * (controller.abar == "local-fit") + "+refine" * controller.refine
         results[name] = result
         rows.append({"controller": name, **result.summary()})
     height, width = image_size

@@ -100,6 +100,8 @@ DAMAGE = {
     "JSON list": lambda c: c.__setitem__("__config__", np.array("[1, 2]")),
     "lattice as text": _config(lambda k: k.__setitem__("lattice", "3,2")),
     "refine as text": _config(lambda k: k.__setitem__("refine", "yes")),
+    "unknown abar": _config(lambda k: k.__setitem__("abar", "nearest")),
+    "abar as list": _config(lambda k: k.__setitem__("abar", ["local-fit"])),
     "negative t": _config(lambda k: k.__setitem__("t", -4)),
     "foreign generator": _config(lambda k: k["rng_state"].__setitem__("bit_generator", "seed")),
     "empty lattice": _config(lambda k: k.__setitem__("lattice", [])),

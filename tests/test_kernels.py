@@ -58,6 +58,7 @@ def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarra
         {"rule": "brause"},
         {"averaging": "winner"},
         {"refine": False},
+        {"abar": "average"},
         {"lattice": (17, 9)},
         {"lattice": (5, 4, 3)},
         {"protocol": "brause"},  # the compiled path steps aside: Brause's loop is numpy only

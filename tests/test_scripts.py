@@ -63,7 +63,7 @@ def test_evaluate_compares_controllers_on_the_same_targets(run, tmp_path, capsys
                              "random", "--out", str(tmp_path)])  # fmt: skip
     table = capsys.readouterr().out
     names = [row["controller"] for row in summary["controllers"]]
-    assert names == ["som mrs+refine", "analytic", "random"]
+    assert names == ["som mrs+fit+refine", "analytic", "random"]
     for name in names:
         assert name in table
     analytic = summary["controllers"][1]

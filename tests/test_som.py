@@ -20,7 +20,9 @@ COORDS = [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]  # lattice (3, 2), C o
 
 
 def small_map(**kw) -> VisuomotorSOM:
-    """Lattice (3, 2), 2-D input, 2 joints, with hand-set arrays: w_r at the lattice point."""
+    """Lattice (3, 2), 2-D input, 2 joints, with hand-set arrays: w_r at the lattice point.
+    Fine moves with MRS's averaged Ā unless ``abar`` says otherwise (the hand computations)."""
+    kw.setdefault("abar", "average")
     som = VisuomotorSOM(LOW, HIGH, lattice=(3, 2), input_dim=2, rng=0, **kw)
     som.w = np.array(COORDS, dtype=float)
     som.theta = np.array([[0.1 * k, -0.2 * k] for k in range(6)])
