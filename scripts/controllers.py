@@ -9,7 +9,7 @@ import numpy as np
 from learners.base import Controller
 from learners.random_controller import RandomController
 
-SPECS = "random | analytic | jacobian | PATH.npz (a saved VisuomotorSOM)"
+SPECS = "random | analytic | jacobian | exact-servo | PATH.npz (a saved VisuomotorSOM)"
 #: The envs these controllers drive (PumaTrack-v0 takes joint increments, not reach commands).
 REACH_ENVS = ("RiacsReach-v0", "PumaReach-v0")
 
@@ -42,6 +42,12 @@ def make_controller(spec: str, env, seed: int = 0) -> Controller:
         from learners.jacobian_ik import JacobianIK
 
         return JacobianIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
+    if spec == "exact-servo":
+        from learners.analytic_ik import AnalyticIK
+        from learners.exact_servo import ExactServo
+
+        ik = AnalyticIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
+        return ExactServo(ik, base.nominal_stereo.project)
     if spec.endswith(".npz"):
         from envs.checkpoint import check_map_fits
         from learners.som import VisuomotorSOM
