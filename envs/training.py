@@ -64,6 +64,7 @@ class RunConfig:
     eval_trials: int = 200
     fine_moves: int = 2
     refine: bool = True
+    abar: str = "local-fit"  # Ā of the test-time fine moves (training moves use the average)
     image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH)  # sensing images, px
 
     def __post_init__(self) -> None:  # tuples also when read back from JSON lists
@@ -112,6 +113,7 @@ def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
         rule=config.rule,
         protocol=config.protocol,
         refine=config.refine,
+        abar=config.abar,
         t_max=config.trials,
         rng=np.random.default_rng(config.seed),
         input_low=seen.min(axis=0),

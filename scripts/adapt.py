@@ -35,7 +35,7 @@ from envs.adaptation import (
 from envs.adaptation_media import curves_figure, phases_video
 from envs.training import RunConfig
 from learners.persistence import write_atomic
-from learners.som import VisuomotorSOM
+from learners.som import ABAR, VisuomotorSOM
 
 from controllers import REACH_ENVS
 
@@ -69,6 +69,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
         "run's maps) and train it --warmup trials in this setting before the change",
     )
     parser.add_argument("--warmup", type=cli.positive_int, default=300)
+    parser.add_argument(
+        "--abar",
+        default=RunConfig.abar,
+        choices=ABAR,
+        help="Ā of the evaluations' fine moves: local-fit (this project's) or average (MRS)",
+    )
     parser.add_argument("--video-trials", type=cli.nonnegative_int, default=3, help="0: no video")
     parser.add_argument("--out", type=Path, default=Path("runs/adapt"))
     args = parser.parse_args(argv)
@@ -82,7 +88,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     for env_id in args.envs:
         run = RunConfig(
             env_id, args.sensing, args.control, args.seed, args.train_trials,
-            eval_every=args.pre_every, eval_trials=args.eval_trials,
+            eval_every=args.pre_every, eval_trials=args.eval_trials, abar=args.abar,
         )  # fmt: skip
         base = AdaptConfig(run, after_trials=args.after, every=args.every)
         folder = args.out / env_id
@@ -91,6 +97,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
             som, pre = pretrain(base, progress)
         else:
             som = VisuomotorSOM.load(args.pretrained / env_id / "pretrained.npz")
+            som.abar = args.abar
             print(f"{env_id}: {som.t} trials learned; warm-up in {args.sensing}, {args.control}")
             pre = warm_up(base, som, args.warmup, progress)
         som.save(folder / "pretrained.npz")
