@@ -58,12 +58,13 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
 
 
 @jit
-def _project(projection: np.ndarray, point: np.ndarray) -> tuple[float, float]:
-    """Pixel (u, v) of a world ``point`` (3,) m under ``projection`` (3, 4)."""
-    h = projection[:, 3].copy()
-    for r in range(3):
-        h[r] += _dot(projection[r, :3], point)
-    return h[0] / h[2], h[1] / h[2]
+def _project(projection: np.ndarray, x: float, y: float, z: float) -> tuple[float, float]:
+    """Pixel (u, v) of the world point (x, y, z) m under ``projection`` (3, 4)."""
+    P = projection
+    h0 = P[0, 0] * x + P[0, 1] * y + P[0, 2] * z + P[0, 3]
+    h1 = P[1, 0] * x + P[1, 1] * y + P[1, 2] * z + P[1, 3]
+    h2 = P[2, 0] * x + P[2, 1] * y + P[2, 2] * z + P[2, 3]
+    return h0 / h2, h1 / h2
 
 
 @jit
@@ -145,12 +146,18 @@ def outline_residual_px(
     axis = axis / dist
     alpha = np.arcsin(min(radius / dist, 1.0))
     ca, sa = np.cos(alpha), np.sin(alpha)
-    cu, cv = _project(projection, centre)
+    cu, cv = _project(projection, centre[0], centre[1], centre[2])
     out = np.empty(len(uv))
-    for i in range(len(uv)):
-        across = d[i] - _dot(d[i], axis) * axis
-        across = across / max(np.sqrt(_dot(across, across)), 1e-12)
-        eu, ev = _project(projection, position + ca * axis + sa * across)
+    for i in range(len(uv)):  # per point in floats: no array per point
+        along = _dot(d[i], axis)
+        a0, a1, a2 = d[i, 0] - along * axis[0], d[i, 1] - along * axis[1], d[i, 2] - along * axis[2]
+        scale = sa / max(np.sqrt(a0 * a0 + a1 * a1 + a2 * a2), 1e-12)
+        eu, ev = _project(
+            projection,
+            position[0] + ca * axis[0] + scale * a0,
+            position[1] + ca * axis[1] + scale * a1,
+            position[2] + ca * axis[2] + scale * a2,
+        )
         ou, ov = eu - cu, ev - cv
         norm = max(np.sqrt(ou * ou + ov * ov), 1e-12)
         out[i] = ((uv[i, 0] - eu) * ou + (uv[i, 1] - ev) * ov) / norm

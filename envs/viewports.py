@@ -175,15 +175,19 @@ class ViewportRenderer:
             self.model, data, option, None, self._camera(views[0].camera),
             mujoco.mjtCatBit.mjCAT_ALL, scene,
         )  # fmt: skip
-        geoms, ids = self._model_geoms(tuple(groups))
-        ends, reach = _bounding_capsules(self.model, data, ids)
+        culling = (
+            None  # the scene's model geoms and their bounding capsules, once windows need them
+        )
         for k, view in enumerate(views):
             if k > 0:
                 mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
             hidden = []
             if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
                 _set_frustum(scene, view)
-                hidden = _hide_outside(scene, geoms, ends, reach, view.window.depth)
+                if culling is None:
+                    geoms, ids = self._model_geoms(tuple(groups))
+                    culling = (geoms, *_bounding_capsules(self.model, data, ids))
+                hidden = _hide_outside(scene, *culling, view.window.depth)
             w = view.window
             mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, self._context)
             for geom, kind in hidden:
