@@ -4,14 +4,14 @@ Importing this package chooses the off-screen GL back-end (before mujoco is impo
 registers ``RiacsReach-v0``, ``PumaReach-v0`` and ``PumaTrack-v0`` with Gymnasium.
 """
 
-from envs.rendering import configure_gl_backend
+from envs.sensing.rendering import configure_gl_backend
 
 configure_gl_backend()
 
 import gymnasium as gym  # noqa: E402
 
 from envs.reach import MAX_EPISODE_STEPS, ReachEnv  # noqa: E402
-from envs.stereo import StereoRig  # noqa: E402
+from envs.sensing.stereo import StereoRig  # noqa: E402
 from models.paths import N_STEPS  # noqa: E402
 
 gym.register(

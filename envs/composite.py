@@ -5,7 +5,13 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET, CameraRenderer
+from envs.sensing.rendering import (
+    GROUP_MARKER,
+    GROUP_ROBOT,
+    GROUP_SCENE,
+    GROUP_TARGET,
+    CameraRenderer,
+)
 
 VISIBLE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
 CROSSHAIR = (255, 60, 60)  # target, as sensed at reset

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, fields
 import mujoco
 import numpy as np
 
-from envs.stereo import CameraPair, PinholeCamera
+from envs.sensing.stereo import CameraPair, PinholeCamera
 from models.rotations import rotvec_to_matrix
 from models.workspace import Workspace
 

@@ -11,13 +11,13 @@ import numpy as np
 
 from envs import arguments
 from envs.composite import CompositeView
-from envs.foveated import FoveatedSensing
-from envs.markers import GREEN_EFFECTOR, RED_TARGET
 from envs.perturb import Perturbation, SceneEditor
 from envs.reward import GoalPoints, reward_terms, seen_flags
 from envs.robots import ROBOTS, RobotSpec
-from envs.stereo import CameraPair, StereoRig
-from envs.triangulation import camera_floats
+from envs.sensing.foveated import FoveatedSensing
+from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
+from envs.sensing.stereo import CameraPair, StereoRig
+from envs.sensing.triangulation import camera_floats
 from envs.viewer import HumanViewer
 from models import load_model
 
@@ -127,7 +127,7 @@ class ReachEnv(gym.Env):
       by colour (OpenCV); ``"project"`` is the exact pinhole projection with the same cameras;
       ``"foveated"`` renders each camera only in a small window about where the marker is
       expected (the target's pixels; the whole images when it is not there) at 4× the pixel
-      density, and reports pixels of the base image (``envs.foveated``).
+      density, and reports pixels of the base image (``envs.sensing.foveated``).
     - ``control`` (``"servo"``): ``"servo"`` runs the position actuators until every joint is
       slower than 1e-3 rad/s for 0.02 s (at least 0.02 s, at most 2 s of simulated time);
       ``"kinematic"`` sets the joints.

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from envs.triangulation import CameraFloats, distance_elementwise, triangulate_elementwise
+from envs.sensing.triangulation import CameraFloats, distance_elementwise, triangulate_elementwise
 
 #: ``info`` key saying whether both cameras saw the effector marker after the move.
 SEEN_KEY = "visible_effector"

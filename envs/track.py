@@ -1,6 +1,6 @@
 """PumaTrack-v0: the PUMA 560 tool centre point follows a path by small joint increments.
 
-The episode runner shared by training and evaluation is in :mod:`envs.tracking`.
+The episode runner shared by training and evaluation is in :mod:`envs.harness.tracking`.
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ import numpy as np
 from gymnasium import spaces
 
 from envs import arguments
-from envs.markers import GREEN_EFFECTOR
-from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, CameraRenderer
-from envs.stereo import PinholeCamera, StereoRig
+from envs.sensing.marker_detection import GREEN_EFFECTOR
+from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, CameraRenderer
+from envs.sensing.stereo import PinholeCamera, StereoRig
 from models import load_model
 from models.paths import DT, N_STEPS, PATH_KINDS, Path, sample_path
 from models.puma560 import DH

@@ -18,7 +18,7 @@ import sys
 import threading
 import time
 
-from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
+from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
 
 #: Geom groups the window shows: the scene, the target, the robot and the effector marker.
 SHOWN_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)

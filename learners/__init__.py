@@ -1,12 +1,12 @@
 """Controllers that map camera coordinates to joint commands (numpy only, no MuJoCo)."""
 
-from learners.analytic_ik import AnalyticIK
 from learners.base import Controller
-from learners.jacobian_ik import JacobianIK
+from learners.baselines.analytic_ik import AnalyticIK
+from learners.baselines.jacobian_ik import JacobianIK
+from learners.baselines.random_controller import RandomController
 from learners.natenet import NATEnet, PathTracker
 from learners.persistence import CheckpointError
-from learners.random_controller import RandomController
-from learners.som import VisuomotorSOM
+from learners.som.controller import VisuomotorSOM
 
 __all__ = [
     "AnalyticIK",

@@ -1,71 +1,9 @@
 """Run a grid of training runs on Ray (local by default) and collect one results table.
 
-    .venv/bin/python scripts/sweep.py --grid robot=riacs,puma --grid lattice=3,4,6,8 \\
-        --grid seed=0,1 --grid trials=1000 --out runs/sweep
-    .venv/bin/python scripts/sweep.py --spec sweep.yaml --out runs/sweep      # the grid in a file
-    .venv/bin/python scripts/sweep.py --spec sweep.yaml --address HEAD:6379   # on a Ray cluster
-
-Axes: robot (riacs, puma) and every training setting of scripts/train.py (lattice as 12x7x4
-or n for n×n×n, rule, refine, sensing, control, image_size as 480x640, trials, seed, ...).
-A spec file (JSON or YAML) maps axes to a value or a list of values; --grid adds to it.
-Writes OUT/cells/<cell>/ (run folders), OUT/results.csv, OUT/results.json and
-OUT/error_vs_neurons.png. Run it again to finish or extend a sweep: finished cells are skipped.
+The program is :mod:`envs.cli.sweep` (also installed as a console script).
 """
 
-from __future__ import annotations
-
-import json
-from pathlib import Path
-
-import cli
-
-from envs.sweep import expand
-from envs.sweep_plots import error_vs_neurons
-from envs.sweep_runner import DEFAULT_CPUS, DEFAULT_RETRIES, run_sweep
-
-
-def load_spec(path: Path) -> dict:
-    text = path.read_text()
-    if path.suffix in (".yaml", ".yml"):
-        import yaml  # in the extra "sweep"
-
-        return yaml.safe_load(text) or {}
-    return json.loads(text)
-
-
-def parse_grid(items: list[str]) -> dict[str, list[str]]:
-    grid = {}
-    for item in items:
-        axis, sep, values = item.partition("=")
-        if not sep or not values:
-            raise SystemExit(f"--grid wants AXIS=V1,V2,..., got {item!r}")
-        grid[axis.strip()] = [v.strip() for v in values.split(",")]
-    return grid
-
-
-def main(argv: list[str] | None = None) -> list[dict]:
-    p = cli.parser(__doc__)
-    p.add_argument("--spec", type=Path, help="JSON or YAML file: axis -> value or list")
-    p.add_argument("--grid", action="append", default=[], help="AXIS=V1,V2,... (repeatable)")
-    p.add_argument("--out", type=Path, default=Path("runs/sweep"))
-    p.add_argument("--address", help="Ray cluster address (default: start Ray locally)")
-    p.add_argument("--num-cpus", type=cli.positive_int, default=DEFAULT_CPUS, help="local Ray CPUs")
-    p.add_argument("--retries", type=cli.nonnegative_int, default=DEFAULT_RETRIES, help="per cell")
-    p.add_argument("--checkpoint-every", type=cli.positive_int, default=1000, help="trials")
-    args = p.parse_args(argv)
-    grid = {**(load_spec(args.spec) if args.spec else {}), **parse_grid(args.grid)}
-    try:
-        configs = expand(grid)
-    except (ValueError, TypeError) as exc:
-        raise SystemExit(f"bad grid: {exc}") from None
-    rows = run_sweep(
-        configs, args.out, args.address, args.num_cpus, args.retries, args.checkpoint_every
-    )
-    if rows:
-        figure = error_vs_neurons(rows, args.out / "error_vs_neurons.png")
-        print(f"{len(rows)} cells in {args.out / 'results.csv'}; figure {figure}")
-    return rows
-
+from envs.cli.sweep import run
 
 if __name__ == "__main__":
-    cli.run(main)
+    run()

@@ -1,25 +1,19 @@
-"""Re-adaptation after a change (envs.adaptation, scripts/adapt.py) on a small run: the map that
-learns on gets better, the frozen one stays put, the stale baselines are off by about the change
-and the re-calibrated oracle is exact."""
+"""Re-adaptation after a change (envs.studies.adaptation, scripts/adapt.py) on a small run: the map
+that learns on gets better, the frozen one stays put, the stale baselines are off by about the
+change and the re-calibrated oracle is exact."""
 
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import cv2
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
-from envs.adaptation import MAP_CONTINUAL, MAP_STANDARD, AdaptConfig, adapt, pretrain
-from envs.training import RunConfig
-from learners.som import VisuomotorSOM
-
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-sys.path.insert(0, str(SCRIPTS))
-
-import adapt as adapt_script  # noqa: E402
+from envs.cli import adapt as adapt_script
+from envs.harness.training import RunConfig
+from envs.studies.adaptation import MAP_CONTINUAL, MAP_STANDARD, AdaptConfig, adapt, pretrain
+from learners.som.controller import VisuomotorSOM
 
 COARSE = 0  # column of the coarse error: the one a camera change moves most
 IMPROVED = 0.8  # the learning map's error after the run, at most this fraction of just after

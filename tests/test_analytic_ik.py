@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from envs import StereoRig
-from learners.analytic_ik import AnalyticIK
+from learners.baselines.analytic_ik import AnalyticIK
 from models import arms, load_model, puma560, riacs
 from models.joints import wrap_into_range
 from models.puma560.inverse import BRANCHES, pose_ik, pose_ik_all

@@ -1,18 +1,15 @@
 """Brause (1989) §5-6: table 6a against the printed numbers, the linear-approximation error against
 an independent computation and the Taylor order, the fit and resolution formulas."""
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from models.puma560 import brause as B
+from envs.cli import reproduce_brause
+from models.analyses import brause_linear_error as B
 from models.puma560 import wrist_center, wrist_ik
 from models.puma560.kinematics import jacobian
-
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
 #: Table 6a as printed (n: SE, "3SE = 4 byte", "2SE = 4 byte"), typed from the report.
 PRINTED = {
@@ -132,12 +129,9 @@ def test_training_loop_senses_the_wrist_centre():
 
 
 def test_script_writes_the_table_and_a_fit_near_minus_two(tmp_path):
-    spec = importlib.util.spec_from_file_location(
-        "reproduce_brause", SCRIPTS / "reproduce_brause.py"
+    reproduce_brause.main(
+        ["--out", str(tmp_path), "--no-som", "--points", "81", "--scan-spacing", "0.15"]
     )
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    script.main(["--out", str(tmp_path), "--no-som", "--points", "81", "--scan-spacing", "0.15"])
     result = json.loads((tmp_path / "brause.json").read_text())
     for row in result["table_6a"]:
         assert row["elements"] == pytest.approx(PRINTED[row["n"]][0], rel=3e-3)

@@ -8,10 +8,10 @@ import itertools
 import numpy as np
 import pytest
 
-from envs.trials import run_trial
-from learners.lattice import Lattice
-from learners.schedules import harmonic
-from learners.som import VisuomotorSOM
+from envs.harness.trials import run_trial
+from learners.som.controller import VisuomotorSOM
+from learners.som.lattice import Lattice
+from learners.som.schedules import harmonic
 
 LOW, HIGH = np.array([-3.0, -3.0]), np.array([3.0, 3.0])
 COORDS = [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]  # lattice (3, 2), C order
@@ -155,7 +155,8 @@ def test_without_exploration_3_10_only_right_multiplies_a_c():
     # The fine move is Δθ = A_c e, e = x − w_c, so (3.10) is A* = A_c (I + (e − Δv) Δv^T/|Δv|²):
     # A* maps into the range of A_c, whatever is sensed. A direction of joint space that A_c
     # misses (or, with an A_c J of the wrong sign, moves the wrong way) is never corrected by
-    # the protocol's own trials; this is why it needs well-excited A_c (see learners/som.py).
+    # the protocol's own trials; this is why it needs well-excited A_c (see
+    # learners/som/controller.py).
     som = small_map(gamma=(1.0, 0.5), sigma=0.5)  # γ = 1 at t = 0: A_c := A*, winner only
     som.A = np.array([np.outer([1.0, 2.0], [0.5, -1.0])] * 6)  # rank 1, range along (1, 2)
     x, x_i, x_f = np.array([1.2, 0.1]), np.array([1.0, 0.3]), np.array([1.4, -0.7])

@@ -1,15 +1,14 @@
 """Open chains (Němeček): derivatives by the Y/W recursion against finite differences, the error
 matrices H_{0,0n}, H_{n,0n}, both robots as chains, and the linear model against MuJoCo."""
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from models import accuracy as acc
+from envs.cli import kinematic_accuracy
 from models import load_model, puma560, riacs
+from models.analyses import nemecek_accuracy as acc
 from models.chain import (
     KINDS,
     RIACS_CHAIN,
@@ -20,8 +19,6 @@ from models.chain import (
     riacs_parameters,
     small_angles,
 )
-
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
 
 def explicit(kind: str, v: float) -> np.ndarray:
@@ -184,10 +181,7 @@ def test_perturbed_mjcf_reproduces_the_model_and_the_linear_model_is_second_orde
 
 
 def test_accuracy_script_writes_sensitivities(tmp_path):
-    spec = importlib.util.spec_from_file_location("accuracy_script", SCRIPTS / "accuracy.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    script.main(["--robot", "riacs", "--out", str(tmp_path)])
+    kinematic_accuracy.main(["--robot", "riacs", "--out", str(tmp_path)])
     result = json.loads((tmp_path / "accuracy.json").read_text())
     dp = np.array(result["sensitivity_dp_per_unit"])
     names = result["parameters"]

@@ -4,6 +4,7 @@ stderr, line-buffered output, no internal acceptance wording, files readable by 
 
 from __future__ import annotations
 
+import importlib
 import os
 import re
 import subprocess
@@ -16,8 +17,7 @@ import pytest
 from learners.persistence import write_atomic
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-sys.path.insert(0, str(SCRIPTS))
-COMMANDS = sorted(p.stem for p in SCRIPTS.glob("*.py") if p.stem not in ("cli", "controllers"))
+COMMANDS = sorted(p.stem for p in SCRIPTS.glob("*.py"))
 
 
 def _run(*args: str, **kw) -> subprocess.CompletedProcess:
@@ -36,7 +36,8 @@ def _one_line_error(result: subprocess.CompletedProcess) -> str:
 def test_every_script_explains_itself_with_defaults_and_its_whole_description(name):
     result = _run(str(SCRIPTS / f"{name}.py"), "--help")
     assert result.returncode == 0, result.stderr
-    doc = (SCRIPTS / f"{name}.py").read_text().split('"""')[1]
+    wrapper = (SCRIPTS / f"{name}.py").read_text()
+    doc = importlib.import_module(wrapper.split("from ")[1].split(" import")[0]).__doc__
     last = [line.strip() for line in doc.strip().splitlines() if line.strip()][-1]
     assert last in result.stdout  # the description is not cut
     options = re.findall(r"^  --(?!help)[\w-]+.*(?:\n {6,}\S.*)*", result.stdout, re.M)
@@ -67,7 +68,7 @@ def test_bad_values_and_user_errors_are_one_line_with_status_2(args, message, tm
 
 
 def test_stdout_is_line_buffered_when_piped():
-    code = f"import sys; sys.path.insert(0, {str(SCRIPTS)!r}); import cli; "
+    code = "import sys; from envs.cli import common as cli; "
     code += "cli.run(lambda: print(sys.stdout.line_buffering))"
     assert _run("-c", code).stdout.strip() == "True"
 
@@ -81,8 +82,7 @@ def test_video_shows_progress_on_stderr(tmp_path):
 
 
 def test_reports_say_what_happened_not_whether_a_goal_was_met():
-    import bench_envs
-    import train_natenet
+    from envs.cli import bench_envs, train_natenet
 
     row = {"env": "RiacsReach-v0", "sensing": "render", "control": "servo", "steps_per_s": 10.0,
            "ms_per_step": 100.0, "ratio_to_peer": None}  # fmt: skip

@@ -1,4 +1,4 @@
-"""The continual mode of the Kohonen map (learners.schedules.Continual): when it re-adapts, what
+"""The continual mode of the Kohonen map (learners.som.schedules.Continual): when it re-adapts, what
 its schedules are then, that it changes nothing while the error holds, and that it is saved."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from learners.schedules import Continual, ErrorMonitor, Schedule
-from learners.som import DEFAULT_EPS, DEFAULT_EPS_OUT, VisuomotorSOM
+from learners.som.controller import DEFAULT_EPS, DEFAULT_EPS_OUT, VisuomotorSOM
+from learners.som.schedules import Continual, ErrorMonitor, Schedule
 from models import riacs
 
 T_MAX = 100

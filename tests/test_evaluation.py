@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from envs.evaluation import Evaluation, carried_forward, evaluate
-from envs.trials import Trial
+from envs.harness.evaluation import Evaluation, carried_forward, evaluate
+from envs.harness.trials import Trial
 from learners.base import Controller
 
 
@@ -90,7 +90,7 @@ def test_an_evaluation_built_without_moves_made_counts_every_trial_complete():
 
 @pytest.mark.parametrize("name", ["error_map", "error_histogram", "reached_3d"])
 def test_plots_draw_trials_that_stopped(tmp_path, name):
-    from envs import plots
+    from envs.harness import plots
 
     result = evaluate(_ScriptedEnv(), _Still(), trials=4, fine_moves=2)
     path = getattr(plots, name)(result, tmp_path / f"{name}.png")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (registers the envs)
-from learners.analytic_ik import AnalyticIK
-from learners.exact_servo import ExactServo
+from learners.baselines.analytic_ik import AnalyticIK
+from learners.baselines.exact_servo import ExactServo
 
 
 @pytest.fixture(scope="module", params=["RiacsReach-v0", "PumaReach-v0"])

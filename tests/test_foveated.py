@@ -10,10 +10,10 @@ import pytest
 from test_occlusion import CENTRE, FAR, RADIUS, rig  # noqa: F401  (the rig fixture)
 
 import envs  # noqa: F401  (GL back-end before mujoco)
-from envs.foveated import FoveatedSensing
-from envs.markers import GREEN_EFFECTOR
-from envs.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE
-from envs.viewports import Window
+from envs.sensing.foveated import FoveatedSensing
+from envs.sensing.marker_detection import GREEN_EFFECTOR
+from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE
+from envs.sensing.viewports import Window
 
 GROUPS = (GROUP_SCENE, GROUP_ROBOT, GROUP_MARKER)
 

@@ -10,7 +10,7 @@ import pytest
 
 from learners.natenet import NATEnet
 from learners.persistence import CheckpointError
-from learners.som import VisuomotorSOM
+from learners.som.controller import VisuomotorSOM
 
 LOW, HIGH = np.array([-1.0, -2.0]), np.array([1.0, 2.0])  # joint ranges, rad
 BOX = (np.zeros(2), np.array([320.0, 240.0]))  # input box, px

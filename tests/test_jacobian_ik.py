@@ -4,7 +4,7 @@ the previous command; the arms' Jacobians equal finite differences of their forw
 import numpy as np
 import pytest
 
-from learners.jacobian_ik import JacobianIK
+from learners.baselines.jacobian_ik import JacobianIK
 from models import arms, puma560, riacs
 
 WORKSPACES = {"puma560": puma560.WORKSPACE, "riacs": riacs.WORKSPACE}

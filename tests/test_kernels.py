@@ -15,10 +15,9 @@ import json
 import numpy as np
 import pytest
 
-from learners import kernels
 from learners.guards import INPUT_MARGIN, InputBox
-from learners.schedules import Continual
-from learners.som import VisuomotorSOM
+from learners.som.controller import VisuomotorSOM, kernels
+from learners.som.schedules import Continual
 from models.riacs import LOWER, UPPER
 
 pytestmark = pytest.mark.skipif(

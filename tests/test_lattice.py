@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from learners.lattice import H_CUTOFF, Lattice
+from learners.som.lattice import H_CUTOFF, Lattice
 
 
 class FullTables:

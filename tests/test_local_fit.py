@@ -1,4 +1,4 @@
-"""The fine moves' local fit of Ā (``learners/local_fit.py``) against a smooth map with a known
+"""The fine moves' local fit of Ā (``learners/som/local_fit.py``) against a smooth map with a known
 Jacobian, a field it must recover, and the two paths (numba, numpy) against each other."""
 
 from __future__ import annotations
@@ -6,10 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from learners import kernels
-from learners.lattice import Lattice
-from learners.local_fit import local_abar
-from learners.som import VisuomotorSOM
+from learners.som.controller import VisuomotorSOM, kernels
+from learners.som.lattice import Lattice
+from learners.som.local_fit import local_abar
 from models.riacs import LOWER, UPPER
 
 SPAN = 0.6  # rad: the neurons' joint angles form a grid over [−SPAN, SPAN]³

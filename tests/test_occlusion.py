@@ -4,9 +4,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from envs.markers import GREEN_EFFECTOR
-from envs.sphere_fit import MAX_HIDDEN, MAX_HIDDEN_SLIVER, outline_arc
-from envs.stereo import StereoRig
+from envs.sensing.marker_detection import GREEN_EFFECTOR
+from envs.sensing.marker_fit import MAX_HIDDEN, MAX_HIDDEN_SLIVER, outline_arc
+from envs.sensing.stereo import StereoRig
 
 RADIUS = 0.05  # m: about 16 px in these 320x240 images
 #: Two cameras 1 m above the sphere, like the RIACS rig; an occluder in the robot's geom group

@@ -4,10 +4,10 @@ projection stay consistent, the baselines keep the nominal cameras, bad changes 
 import numpy as np
 import pytest
 
+from envs.cli.controllers import make_controller
 from envs.perturb import Perturbation, PerturbationError
 from envs.reach import ReachEnv
 from models import puma560, riacs
-from scripts.controllers import make_controller
 
 RENDER_TOL = 0.5  # px: rendered sensing vs exact projection (as tests/test_stereo.py)
 #: The model arrays a perturbation writes.

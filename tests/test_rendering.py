@@ -2,8 +2,8 @@
 workspace point is in view, both GL back-ends agree, and the renderer's errors are helpful.
 
 The projection and the colour detection are written here from MuJoCo's camera definition
-(pose, ``fovy`` or ``sensorsize``/``focal``/``principal``), independently of ``envs.stereo`` and
-``envs.markers``.
+(pose, ``fovy`` or ``sensorsize``/``focal``/``principal``), independently of
+``envs.sensing.stereo`` and ``envs.sensing.marker_detection``.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import models
-from envs.rendering import CameraRenderer
+from envs.sensing.rendering import CameraRenderer
 from models import puma560, riacs
 
 HEIGHT, WIDTH = 240, 320  # px, the sensing image size
@@ -277,7 +277,7 @@ import mujoco
 import mujoco.gl_context
 import numpy as np
 import models
-from envs.rendering import CameraRenderer
+from envs.sensing.rendering import CameraRenderer
 
 args = json.loads(sys.argv[1])
 model = models.load_model(args["name"])
@@ -379,7 +379,7 @@ def test_renderer_rejects_images_larger_than_the_buffer():
 
 _PROJECT_THEN_RENDER = """
 import envs, gymnasium as gym
-from envs.rendering import RenderingUnavailableError, gl_libraries_loaded
+from envs.sensing.rendering import RenderingUnavailableError, gl_libraries_loaded
 env = gym.make("RiacsReach-v0", sensing="project", control="kinematic")
 env.reset(seed=0)
 _, _, _, _, info = env.step(env.unwrapped.joint_lower + 0.3)
@@ -420,7 +420,7 @@ def test_unset_backend_prefers_egl_then_osmesa_even_if_mujoco_came_first(tmp_pat
         pytest.skip("neither libEGL nor libOSMesa is installed")
     code = (
         "import mujoco, os, envs, models\n"
-        "from envs.rendering import render_camera\n"
+        "from envs.sensing.rendering import render_camera\n"
         "model = models.load_model('riacs')\n"
         "data = mujoco.MjData(model)\n"
         "mujoco.mj_forward(model, data)\n"
@@ -439,7 +439,7 @@ def test_fork_guard_sees_gl_started_outside_the_project(tmp_path):
         pytest.skip("libEGL is not installed")
     code = (
         "import os, mujoco, envs, models\n"
-        "from envs.rendering import CameraRenderer, RenderingUnavailableError\n"
+        "from envs.sensing.rendering import CameraRenderer, RenderingUnavailableError\n"
         "model = models.load_model('riacs')\n"
         "data = mujoco.MjData(model)\n"
         "renderer = mujoco.Renderer(model, 64, 64)\n"
@@ -465,7 +465,7 @@ def test_unusable_backend_error_names_both_backends(tmp_path):
         pytest.skip("libEGL is not installed")
     code = (
         "import envs, mujoco, models\n"
-        "from envs.rendering import CameraRenderer, RenderingUnavailableError\n"
+        "from envs.sensing.rendering import CameraRenderer, RenderingUnavailableError\n"
         "model = models.load_model('riacs')\n"
         "try:\n"
         "    CameraRenderer(model, 240, 320).render(mujoco.MjData(model), 'cam_left')\n"

@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from models.puma560 import resolution as R
+from models.analyses import brause_optimal_resolution as R
 from models.puma560.kinematics import jacobian
 
 PAPER = R.ErrorModel()

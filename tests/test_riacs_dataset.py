@@ -1,16 +1,12 @@
 """The RIACS data set: every row satisfies the report's camera and arm formulas (recomputed here),
 the grid has the MATLAB loop counts, and the seeded splits behave as documented."""
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from envs.cli import riacs_dataset
 from learners.persistence import load_npz
-from models.riacs import dataset as D
-
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+from models.analyses import riacs_dataset as D
 
 
 @pytest.fixture(scope="module")
@@ -69,10 +65,9 @@ def test_bad_step_raises():
 
 
 def test_script_writes_npz_csv_and_plots(tmp_path):
-    spec = importlib.util.spec_from_file_location("riacs_dataset", SCRIPTS / "riacs_dataset.py")
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
-    script.main(["--out", str(tmp_path), "--stepsize", "0.3", "--train", "50", "--test", "20"])
+    riacs_dataset.main(
+        ["--out", str(tmp_path), "--stepsize", "0.3", "--train", "50", "--test", "20"]
+    )
     config, arrays = load_npz(tmp_path / "riacs_dataset.npz", "riacs-dataset", 1)
     assert config["columns"] == list(D.COLUMNS)
     assert arrays["train"].shape == (50, 10) and arrays["test"].shape == (20, 10)

@@ -1,4 +1,4 @@
-"""The map-vs-RL report (``envs.rl_report``, ``scripts/compare_rl.py --report-only``) from
+"""The map-vs-RL report (``envs.studies.rl_report``, ``scripts/compare_rl.py --report-only``) from
 hand-set curves: every cell written here from the curves, not from the code."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from envs.rl_compare import Curve
-from envs.rl_report import report, table
+from envs.studies.rl_comparison import Curve
+from envs.studies.rl_report import report, table
 
 STEPS = [100, 1000, 10000]
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "compare_rl.py"

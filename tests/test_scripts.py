@@ -11,14 +11,10 @@ import cv2
 import numpy as np
 import pytest
 
+import envs  # noqa: F401  (GL back-end before mujoco)
+from envs.cli import evaluate, train, video
+
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-sys.path.insert(0, str(SCRIPTS))
-
-import evaluate  # noqa: E402
-import train  # noqa: E402
-import video  # noqa: E402
-
-import envs  # noqa: E402, F401  (GL back-end before mujoco)
 
 
 def _frames(path: Path) -> list[np.ndarray]:

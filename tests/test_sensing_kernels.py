@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
-from envs import sensing_kernels
-from envs.markers import GREEN_EFFECTOR, Blob, outline_edges
-from envs.sphere_fit import fit_centre, outline_residual_px, rays
-from envs.stereo import PinholeCamera
+from envs.sensing import kernels as sensing_kernels
+from envs.sensing.marker_detection import GREEN_EFFECTOR, Blob, outline_edges
+from envs.sensing.marker_fit import fit_centre, outline_residual_px, rays
+from envs.sensing.stereo import PinholeCamera
 
 pytestmark = pytest.mark.skipif(
     not sensing_kernels.available(), reason="numba is not installed (pip install -e '.[fast]')"

@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from learners.lattice import H_CUTOFF
 from learners.persistence import CheckpointError, save_npz
-from learners.schedules import Schedule
-from learners.som import VisuomotorSOM
+from learners.som.controller import VisuomotorSOM
+from learners.som.lattice import H_CUTOFF
+from learners.som.schedules import Schedule
 from models import riacs
 
 LOW, HIGH = np.array([-1.0, -2.0]), np.array([1.0, 2.0])  # J = 2 joints of the small maps

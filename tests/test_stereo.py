@@ -2,7 +2,7 @@
 sensing against exact projection.
 
 The reference formulas are written here from the camera definitions (the RIACS report's camera()
-model, MuJoCo's fovy camera), not taken from ``envs.stereo``.
+model, MuJoCo's fovy camera), not taken from ``envs.sensing.stereo``.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (chooses the GL back-end, registers the envs)
-from envs.markers import RED_TARGET
 from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH, ReachEnv
+from envs.sensing.marker_detection import RED_TARGET
 from models import puma560, riacs
 
 ROBOTS = ("riacs", "puma560")

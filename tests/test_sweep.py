@@ -24,8 +24,9 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
-from envs.runfolder import release_lock, take_lock
-from envs.sweep import (
+from envs.harness.run_folder import release_lock, take_lock
+from envs.harness.training import METRICS_FILE, RunConfig
+from envs.studies.sweep_grid import (
     ATTEMPTS_FILE,
     CELL_FILE,
     LOCK_SUFFIX,
@@ -35,7 +36,6 @@ from envs.sweep import (
     expand,
     run_cell,
 )
-from envs.training import METRICS_FILE, RunConfig
 
 GRID = {"robot": "riacs", "lattice": [3, "4x3x2"], "trials": 1200, "eval_trials": 30}
 GRID.update({"eval_every": 400})
@@ -81,8 +81,8 @@ RUN_CELL = """
 import json, sys
 from pathlib import Path
 import envs
-from envs.sweep import run_cell
-from envs.training import RunConfig
+from envs.studies.sweep_grid import run_cell
+from envs.harness.training import RunConfig
 print(json.dumps(run_cell(RunConfig(**json.loads(sys.argv[1])), Path(sys.argv[2]), 100)))
 """
 
@@ -123,7 +123,7 @@ def test_two_processes_on_one_cell_take_turns(tmp_path):
 @pytest.fixture(scope="module")
 def ray_local():
     ray = pytest.importorskip("ray", reason="ray not installed (make test-sweep installs it)")
-    from envs.sweep_runner import start_ray
+    from envs.studies.sweep_on_ray import start_ray
 
     start_ray(None, num_cpus=2)
     yield ray
@@ -132,7 +132,7 @@ def ray_local():
 
 @pytest.fixture(scope="module")
 def unbroken(ray_local, tmp_path_factory):
-    from envs.sweep_runner import run_sweep
+    from envs.studies.sweep_on_ray import run_sweep
 
     out = tmp_path_factory.mktemp("unbroken")
     rows = run_sweep(expand(GRID), out, checkpoint_every=CHECKPOINT_EVERY, log=lambda s: None)
@@ -158,7 +158,7 @@ def test_two_cell_sweep_table_equals_running_the_cells_directly(unbroken, tmp_pa
 
 
 def test_finished_cells_are_skipped(unbroken):
-    from envs.sweep_runner import run_sweep
+    from envs.studies.sweep_on_ray import run_sweep
 
     out, rows = unbroken
     lines = []
@@ -167,7 +167,7 @@ def test_finished_cells_are_skipped(unbroken):
 
 
 def test_worker_killed_mid_cell_is_retried_and_resumes_to_the_unbroken_result(unbroken, tmp_path):
-    from envs.sweep_runner import run_sweep
+    from envs.studies.sweep_on_ray import run_sweep
 
     out, rows = unbroken
     configs = expand(GRID)

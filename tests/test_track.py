@@ -11,8 +11,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import envs  # noqa: F401  (GL back-end before mujoco)
+from envs.harness.tracking import evaluate, exact_inverse_jacobian, track_episode, train_on_paths
 from envs.track import MAX_JOINT_STEP, PumaTrackEnv
-from envs.tracking import evaluate, exact_inverse_jacobian, track_episode, train_on_paths
 from learners.natenet import NATEnet, PathTracker
 from models.paths import circle_path, path_is_valid, pose_ik, sample_path, tcp_pose
 from models.puma560 import DH

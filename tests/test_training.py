@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
-from envs import training
-from envs.checkpoint import read_unit
-from envs.runfolder import RunFolderError
-from envs.stopping import StopRequested
-from envs.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
+from envs.harness import training
+from envs.harness.checkpoint import read_unit
+from envs.harness.run_folder import RunFolderError
+from envs.harness.stopping import StopRequested
+from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
 from learners.persistence import CheckpointError
-from learners.som import VisuomotorSOM
+from learners.som.controller import VisuomotorSOM
 
 SMALL = RunConfig(trials=60, lattice=(4, 3, 2), eval_every=20, eval_trials=10, seed=3)
 
@@ -143,7 +143,7 @@ def test_the_map_learns_without_the_exact_model(monkeypatch, tmp_path):
     import models.puma560.inverse
     import models.puma560.kinematics
     import models.riacs.kinematics
-    from envs.stereo import StereoRig
+    from envs.sensing.stereo import StereoRig
 
     def forbidden(*args, **kwargs):
         raise AssertionError("the learner used the exact model")

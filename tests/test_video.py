@@ -1,4 +1,4 @@
-"""envs.video: H.264 mp4 files that decode (OpenCV) with the frames that were written."""
+"""envs.harness.video: H.264 mp4 files that decode (OpenCV) with the frames that were written."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from envs.video import VideoWriter
+from envs.harness.video import VideoWriter
 
 COLOURS = [(230, 30, 30), (30, 230, 30), (30, 30, 230), (200, 200, 40)]  # RGB, one per frame
 COLOUR_TOL = 12  # per channel: H.264 at default quality and yuv420p chroma are lossy

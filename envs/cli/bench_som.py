@@ -1,0 +1,224 @@
+"""Speed of the visuomotor SOM, with MiniSom measured in the same run as the peer.
+
+Rows of the table:
+  * full trials/s: ``act(u)`` + ``act(u, v0, explore=True)`` + ``learn(u, θ0, v0, θ1, v1)`` over
+    one whole training schedule (t = 0 .. t_max, so wide and narrow neighbourhoods both count),
+    and over trials after t_max (the narrowest neighbourhood), inputs precomputed, no env; for
+    each kernel (numba when installed, and the numpy reference);
+  * MiniSom winner + update/s on a 2-D lattice with the same number of neurons and 4-D inputs.
+    Map and peer take turns on blocks of ``--block`` trials, so a change in the load of the
+    shared machine hits both; a round's ratio is the median over its blocks of peer time / map
+    time. ``--rounds`` rounds, each with a new map and a new MiniSom over the same inputs; the
+    ratio printed is the median over the rounds, with the lowest and highest round beside it;
+  * act_batch targets/s: coarse commands for a block of targets at once;
+  * a large lattice (``--big``, default 40×40×40): construction time, memory held (peak of
+    numpy allocations while constructing and training, from tracemalloc) and trials/s.
+Writes ``bench_som.json``.
+
+    .venv/bin/python scripts/bench_som.py [--trials 10000] [--big 40 40 40] [--out runs/bench_som]
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+
+from envs.cli import common as cli
+from learners.som.controller import VisuomotorSOM, kernels
+from models.riacs import LOWER, UPPER
+
+IMAGE_SIZE = np.array([320.0, 240.0, 320.0, 240.0])  #: input box of the random pixels (px)
+COARSE_ERROR_PX = 5.0  #: std of the simulated sensed position after the coarse move (px)
+FINE_ERROR_PX = 1.0  #: ... and after the fine move (px)
+MIB = 2**20  #: bytes
+PHASES = ("schedule", "after_t_max")
+
+
+def _inputs(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    U = rng.uniform(0.0, IMAGE_SIZE, size=(n, 4))
+    return (
+        U,
+        U + rng.normal(0.0, COARSE_ERROR_PX, size=U.shape),
+        U + rng.normal(0.0, FINE_ERROR_PX, size=U.shape),
+    )
+
+
+def _som(lattice: tuple[int, ...], trials: int, seed: int, kernel: str) -> VisuomotorSOM:
+    return VisuomotorSOM(
+        LOWER, UPPER, lattice=lattice, t_max=trials, rng=seed, input_high=IMAGE_SIZE, kernel=kernel
+    )
+
+
+def minisom_shape(neurons: int) -> tuple[int, int]:
+    """The most nearly square 2-D lattice with exactly ``neurons`` neurons (336 -> 21 × 16)."""
+    rows = max(r for r in range(1, math.isqrt(neurons) + 1) if neurons % r == 0)
+    return neurons // rows, rows
+
+
+def time_trials(som: VisuomotorSOM, U: np.ndarray, V0: np.ndarray, V1: np.ndarray) -> float:
+    """Seconds for full trials on the given inputs."""
+    start = time.perf_counter()
+    for u, v0, v1 in zip(U, V0, V1, strict=True):
+        som.reset()
+        theta0 = som.act(u)
+        theta1 = som.act(u, v0, explore=True)
+        som.learn(u, theta0, v0, theta1, v1)
+    return time.perf_counter() - start
+
+
+class Peer:
+    """MiniSom on the same number of neurons, trained over the same inputs (its own schedule)."""
+
+    def __init__(self, neurons: int, U: np.ndarray, seed: int) -> None:
+        from minisom import MiniSom
+
+        self.shape = minisom_shape(neurons)
+        self.som = MiniSom(*self.shape, U.shape[1], sigma=2.0, learning_rate=1.0, random_seed=seed)
+        self.som.random_weights_init(U[:1000])
+        self.t, self.t_max = 0, len(U)
+
+    def time(self, U: np.ndarray) -> float:
+        """Seconds for winner + update on each row of U."""
+        start = time.perf_counter()
+        for u in U:
+            self.som.update(u, self.som.winner(u), self.t, self.t_max)
+            self.t += 1
+        return time.perf_counter() - start
+
+
+def interleaved(som: VisuomotorSOM, peer: Peer, inputs, block: int) -> tuple[float, float, float]:
+    """Seconds of the map's trials and of the peer's updates, taking turns block by block, and
+    the median over the blocks of the ratio peer seconds / map seconds."""
+    ours, theirs = [], []
+    for i in range(0, len(inputs[0]), block):
+        ours.append(time_trials(som, *(x[i : i + block] for x in inputs)))
+        theirs.append(peer.time(inputs[0][i : i + block]))
+    return sum(ours), sum(theirs), float(np.median(np.array(theirs) / np.array(ours)))
+
+
+def rounds(
+    kernel: str, lattice: tuple[int, ...], inputs, block: int, count: int, seed: int
+) -> dict[str, dict]:
+    """Per phase ("schedule": t = 0..t_max, "after_t_max": as many trials again): trials/s of
+    the map and updates/s of MiniSom over all ``count`` rounds, and each round's ratio."""
+    n, trials = math.prod(lattice), len(inputs[0])
+    phases: dict[str, dict] = {p: {"ours": 0.0, "theirs": 0.0, "ratios": []} for p in PHASES}
+    for _ in range(count):
+        som, peer = _som(lattice, trials, seed, kernel), Peer(n, inputs[0], seed)
+        for phase in PHASES:  # the second one continues the same map and peer, t > t_max
+            ours, theirs, ratio = interleaved(som, peer, inputs, block)
+            phases[phase]["ours"] += ours
+            phases[phase]["theirs"] += theirs
+            phases[phase]["ratios"].append(ratio)
+    return {
+        phase: {
+            "trials_per_s": count * trials / p["ours"],
+            "minisom_updates_per_s": count * trials / p["theirs"],
+            "ratio": float(np.median(p["ratios"])),
+            "round_ratios": p["ratios"],
+        }
+        for phase, p in phases.items()
+    }
+
+
+def big_lattice(lattice: tuple[int, ...], trials: int, seed: int, kernel: str) -> dict:
+    """Construction seconds, peak MiB of numpy allocations, and trials per second of wall
+    time and of this process's CPU time (the machine is shared) over a schedule."""
+    inputs = _inputs(np.random.default_rng(seed), trials)
+    tracemalloc.start()
+    start = time.perf_counter()
+    som = _som(lattice, trials, seed, kernel)
+    built = time.perf_counter() - start
+    cpu = time.process_time()
+    seconds = time_trials(som, *inputs)
+    cpu = time.process_time() - cpu
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return {
+        "construct_s": built,
+        "peak_mib": peak / MIB,
+        "trials_per_s": trials / seconds,
+        "trials_per_cpu_s": trials / cpu,
+    }
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = cli.parser(__doc__)
+    parser.add_argument(
+        "--trials", type=cli.positive_int, default=10_000, help="trials = t_max of the run"
+    )
+    parser.add_argument(
+        "--block", type=cli.positive_int, default=100, help="trials per turn of map and peer"
+    )
+    parser.add_argument(
+        "--rounds", type=cli.positive_int, default=5, help="new map and peer, same inputs"
+    )
+    parser.add_argument(
+        "--batch", type=cli.positive_int, default=10_000, help="targets per act_batch call"
+    )
+    parser.add_argument("--lattice", type=cli.positive_int, nargs="+", default=[12, 7, 4])
+    parser.add_argument(
+        "--big", type=cli.positive_int, nargs="*", default=[40, 40, 40], help="none: skip"
+    )
+    parser.add_argument(
+        "--big-trials", type=cli.positive_int, default=2000, help="t_max of the big lattice"
+    )
+    parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    parser.add_argument("--out", type=Path, default=Path("runs/bench_som"))
+    args = parser.parse_args(argv)
+    lattice, n = tuple(args.lattice), math.prod(args.lattice)
+    inputs = _inputs(np.random.default_rng(args.seed), args.trials)
+    result: dict = {"neurons": n, "trials": args.trials, "minisom_shape": minisom_shape(n)}
+    rows = []
+    for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):
+        time_trials(_som(lattice, 3, args.seed, kernel), *(x[:3] for x in inputs))  # compiles
+        measured = rounds(kernel, lattice, inputs, args.block, args.rounds, args.seed)
+        for phase, figures in measured.items():
+            result[f"{kernel}_{phase}"] = figures
+            when = "t = 0..t_max" if phase == "schedule" else "t > t_max"
+            rows.append((f"{kernel}: full trial, {when}", figures["trials_per_s"], figures))
+        som = _som(lattice, args.trials, args.seed, kernel)
+        time_trials(som, *inputs)
+        U = np.resize(inputs[0], (args.batch, 4))
+        start = time.perf_counter()
+        som.act_batch(U)
+        rows.append(
+            (f"{kernel}: act_batch targets", args.batch / (time.perf_counter() - start), None)
+        )
+    peer_shape = "x".join(map(str, result["minisom_shape"]))
+    print(f"{n} neurons ({'x'.join(map(str, lattice))}), 4-D input; peer: MiniSom {peer_shape} "
+          f"winner + update, same run, same blocks; {args.rounds} rounds of {args.trials} "
+          "trials per phase")  # fmt: skip
+    print(f"{'what':<40} {'per s':>10} {'/ MiniSom (median of rounds)':>29} {'rounds':>12}")
+    for what, rate, figures in rows:
+        ratio, spread = "", ""
+        if figures is not None:
+            low, high = min(figures["round_ratios"]), max(figures["round_ratios"])
+            ratio, spread = f"{figures['ratio']:.2f}", f"{low:.2f}-{high:.2f}"
+        print(f"{what:<40} {rate:>10,.0f} {ratio:>29} {spread:>12}")
+    if args.big:
+        big = tuple(args.big)
+        for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):
+            figures = big_lattice(big, args.big_trials, args.seed, kernel)
+            result[f"big_{kernel}"] = {"lattice": list(big), **figures}
+            print(f"{kernel}: {'x'.join(map(str, big))} = {math.prod(big):,} neurons: constructs "
+                  f"in {figures['construct_s']:.3f} s, holds {figures['peak_mib']:.0f} MiB, "
+                  f"{figures['trials_per_s']:,.0f} trials/s ({figures['trials_per_cpu_s']:,.0f} "
+                  f"per CPU-s), t = 0..{args.big_trials}")  # fmt: skip
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "bench_som.json").write_text(json.dumps(result, indent=2) + "\n")
+    return result
+
+
+def run() -> None:
+    """Console entry point ``visuomotor-bench-som``."""
+    cli.run(main)
+
+
+if __name__ == "__main__":
+    run()

@@ -1,0 +1,97 @@
+"""What every script shares: help that shows the whole description and every default, argument
+types that check their values, line-buffered output, and user errors as one line (exit 2)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from typing import TypeVar
+
+from tqdm import tqdm
+
+T = TypeVar("T")
+#: Exit status of a command-line mistake (as argparse uses).
+USAGE_ERROR = 2
+
+
+class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Defaults in the help, the description printed as written."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """Every option gets a help entry, so that its default is shown."""
+
+    def add_argument(self, *args, **kwargs):  # type: ignore[override]
+        kwargs.setdefault("help", "(default: %(default)s)")  # argparse skips empty help
+        return super().add_argument(*args, **kwargs)
+
+
+def parser(doc: str | None) -> argparse.ArgumentParser:
+    """An ArgumentParser whose help shows ``doc`` (the script's docstring) and the defaults."""
+    return _Parser(description=doc, formatter_class=_Formatter)
+
+
+def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
+    def parse(text: str) -> T:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"wants {wanted}, got {text!r}") from None
+        if not test(value):
+            raise argparse.ArgumentTypeError(f"wants {wanted}, got {text!r}")
+        return value
+
+    parse.__name__ = wanted  # argparse names the type in its messages
+    return parse
+
+
+positive_int = _number(int, lambda n: n > 0, "an integer > 0")
+nonnegative_int = _number(int, lambda n: n >= 0, "an integer >= 0")
+positive_float = _number(float, lambda x: math.isfinite(x) and x > 0, "a finite number > 0")
+nonnegative_float = _number(float, lambda x: math.isfinite(x) and x >= 0, "a finite number >= 0")
+
+
+def progress(items: Iterable[T], what: str, unit: str) -> Iterable[T]:
+    """``items`` with a progress bar on stderr (shown for loops that take a while)."""
+    return tqdm(items, desc=what, unit=unit, file=sys.stderr, mininterval=0.5, leave=False)
+
+
+def given_options(p: argparse.ArgumentParser, argv: Sequence[str] | None) -> set[str]:
+    """The destinations of the options written on the command line (not left at default)."""
+    actions = p._actions  # argparse has no public way to ask this
+    defaults = [a.default for a in actions]
+    try:
+        for a in actions:
+            a.default = argparse.SUPPRESS
+        return set(vars(p.parse_args(argv)))
+    finally:
+        for a, default in zip(actions, defaults, strict=True):
+            a.default = default
+
+
+def user_errors() -> tuple[type[BaseException], ...]:
+    """The project's errors that mean "your input or setup", not "a bug"."""
+    from envs.harness.run_folder import RunFolderError
+    from envs.sensing.rendering import RenderingUnavailableError
+    from learners.persistence import CheckpointError
+
+    return (CheckpointError, RunFolderError, RenderingUnavailableError)
+
+
+def fail(message: str) -> None:
+    """Print ``prog: error: message`` as one line and exit with status 2."""
+    print(f"{os.path.basename(sys.argv[0])}: error: {message}", file=sys.stderr)
+    raise SystemExit(USAGE_ERROR)
+
+
+def run(main: Callable[[], object]) -> None:
+    """Run a script's ``main`` with line-buffered stdout and user errors as one line, exit 2."""
+    sys.stdout.reconfigure(line_buffering=True)
+    errors = user_errors()
+    try:
+        main()
+    except errors as exc:
+        fail(str(exc))

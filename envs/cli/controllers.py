@@ -1,0 +1,58 @@
+"""Building a controller for an env from a command-line spec (shared by the scripts)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from learners.base import Controller
+from learners.baselines.random_controller import RandomController
+
+SPECS = "random | analytic | jacobian | exact-servo | PATH.npz (a saved VisuomotorSOM)"
+#: The envs these controllers drive (PumaTrack-v0 takes joint increments, not reach commands).
+REACH_ENVS = ("RiacsReach-v0", "PumaReach-v0")
+
+
+class Ticking(Controller):
+    """``inner`` that advances ``ticks`` (an iterator, e.g. a progress bar) at every trial."""
+
+    def __init__(self, inner: Controller, ticks) -> None:
+        self.inner, self._ticks = inner, iter(ticks)
+
+    def act(self, u, v=None):
+        return self.inner.act(u, v)
+
+    def reset(self) -> None:
+        next(self._ticks, None)
+        self.inner.reset()
+
+
+def make_controller(spec: str, env, seed: int = 0) -> Controller:
+    """``spec``: one of ``SPECS``; ``env`` gives the joint ranges and the nominal stereo rig (the
+    exact baselines keep that calibration when the scene is perturbed)."""
+    base = env.unwrapped
+    if spec == "random":
+        return RandomController(base.joint_lower, base.joint_upper, np.random.default_rng(seed))
+    if spec == "analytic":
+        from learners.baselines.analytic_ik import AnalyticIK
+
+        return AnalyticIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
+    if spec == "jacobian":
+        from learners.baselines.jacobian_ik import JacobianIK
+
+        return JacobianIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
+    if spec == "exact-servo":
+        from learners.baselines.analytic_ik import AnalyticIK
+        from learners.baselines.exact_servo import ExactServo
+
+        ik = AnalyticIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
+        return ExactServo(ik, base.nominal_stereo.project)
+    if spec.endswith(".npz"):
+        from envs.harness.checkpoint import check_map_fits
+        from learners.som.controller import VisuomotorSOM
+
+        som = VisuomotorSOM.load(Path(spec))
+        check_map_fits(spec, som, env)  # a map of another robot or image size is refused
+        return som
+    raise ValueError(f"unknown controller {spec!r}; valid: {SPECS}")

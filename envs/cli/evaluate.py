@@ -1,0 +1,152 @@
+"""Evaluate controllers on fresh held-out targets: a table of errors after each move, and plots.
+
+    .venv/bin/python scripts/evaluate.py --run runs/riacs          # the trained SOM of a run
+    .venv/bin/python scripts/evaluate.py --run runs/riacs --compare analytic jacobian
+    .venv/bin/python scripts/evaluate.py --env PumaReach-v0 --controller analytic
+
+Plots (for the first controller, if it is a SOM): learning curve (from the run's
+metrics.jsonl), error histogram, lattice in the left camera's image, targets and reached
+positions in 3-D, error map over the workspace. Numbers go to OUT/evaluation.json.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+
+import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
+from envs.cli import common as cli
+from envs.cli import train
+from envs.cli.controllers import REACH_ENVS, SPECS, Ticking, make_controller
+from envs.harness import plots
+from envs.harness.evaluation import evaluate
+from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
+from envs.reach import SENSING_MODES
+from envs.sensing.rendering import render_camera
+from learners.som.controller import ABAR, VisuomotorSOM
+
+#: Held-out targets come from this seed unless told otherwise (never a training seed offset).
+DEFAULT_SEED = 20_000
+
+
+def main(argv: list[str] | None = None) -> dict:
+    p = cli.parser(__doc__)
+    p.add_argument("--run", type=Path, help="a training run folder (som.npz, metrics.jsonl)")
+    p.add_argument("--controller", help=f"instead of --run: {SPECS}")
+    p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
+    p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
+    p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
+    p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
+    p.add_argument("--image-size", type=train.parse_image_size,
+                   help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip
+    p.add_argument("--targets", type=cli.positive_int, default=1000)
+    p.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
+    p.add_argument("--seed", type=cli.nonnegative_int, default=DEFAULT_SEED)
+    p.add_argument("--out", type=Path, help="default: RUN/eval or runs/eval")
+    p.add_argument("--no-plots", action="store_true")
+    p.add_argument(
+        "--protocol",
+        choices=("mrs", "brause"),
+        help="how a SOM moves (default: the protocol it was trained with)",
+    )
+    p.add_argument(
+        "--no-refine",
+        action="store_true",
+        help="SOM fine moves as MRS publish them: the averaged Ā, no Broyden step",
+    )
+    p.add_argument(
+        "--abar",
+        choices=ABAR,
+        help="Ā of a SOM's fine moves (default: the map's; --no-refine: average)",
+    )
+    args = p.parse_args(argv)
+    if (args.run is None) == (args.controller is None):
+        p.error("give either --run DIR or --controller SPEC")
+
+    run_config = {}
+    if args.run is not None:
+        run_config = vars(Trainer.stored_config(args.run))
+    env_id = args.env or run_config.get("env", "RiacsReach-v0")
+    sensing = args.sensing or run_config.get("sensing", "project")
+    control = args.control or run_config.get("control", "kinematic")
+    image_size = args.image_size or tuple(run_config.get("image_size", (240, 320)))
+    out = args.out or (args.run / "eval" if args.run else Path("runs/eval"))
+    env = gym.make(env_id, sensing=sensing, control=control, image_size=image_size)
+    specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
+
+    rows, results = [], {}
+    for spec in specs:
+        controller = make_controller(spec, env, args.seed)
+        if isinstance(controller, VisuomotorSOM):
+            controller.protocol = args.protocol or controller.protocol
+            controller.refine = controller.refine and not args.no_refine
+            controller.abar = args.abar or ("average" if args.no_refine else controller.abar)
+        env.reset(seed=args.seed)  # the same held-out targets for every controller
+        ticking = Ticking(controller, cli.progress(range(args.targets), spec, "target"))
+        result = evaluate(env, ticking, args.targets, args.fine_moves)
+        name = spec
+        if isinstance(controller, VisuomotorSOM):
+            name = f"som {controller.protocol}"
+            if controller.protocol == "mrs":
+                name += "+fit" * (controller.abar == "local-fit") + "+refine" * controller.refine
+        results[name] = result
+        rows.append({"controller": name, **result.summary()})
+    height, width = image_size
+    print(f"{env_id}  sensing={sensing} ({width}x{height})  control={control}  "
+          f"{args.targets} targets, seed {args.seed}")  # fmt: skip
+    print(format_table(rows))
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
+               "image_size": [height, width],
+               "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
+    (out / "evaluation.json").write_text(json.dumps(summary, indent=1))
+
+    first = specs[0]
+    if not args.no_plots and first.endswith(".npz"):
+        write_plots(env, VisuomotorSOM.load(first), results[rows[0]["controller"]], args.run, out)
+        print(f"plots in {out}")
+    env.close()
+    return summary
+
+
+def format_table(rows: list[dict]) -> str:
+    """Mean error after each move, then median and 95th percentile after the last, all over
+    every trial (a trial that stopped counts where it stopped), and the complete trials."""
+    moves = len(rows[0]["mean_mm"])
+    names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
+    head = f"{'controller':<18}" + "".join(f"{n + ' [mm]':>14}" for n in names)
+    head += f"{'last median':>12}{'last p95':>10}{'last [% reach]':>16}{'last [px]':>11}"
+    head += f"{'us/query':>10}{'complete':>10}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        line = f"{r['controller']:<18}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
+        line += f"{r['median_mm'][-1]:>12.3f}{r['p95_mm'][-1]:>10.3f}"
+        line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
+        line += f"{r['microseconds_per_query']:>10.1f}{r['complete_fraction'] * 100:>9.1f}%"
+        lines.append(line)
+    lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
+    return "\n".join(lines)
+
+
+def write_plots(env, som: VisuomotorSOM, result, run: Path | None, out: Path) -> None:
+    base = env.unwrapped
+    if run is not None and (run / METRICS_FILE).is_file():
+        rows = [json.loads(r) for r in (run / METRICS_FILE).read_text().splitlines()]
+        plots.learning_curve(rows, base.reach, out / "learning_curve.png")
+    plots.error_histogram(result, out / "error_histogram.png")
+    image = render_camera(base.model, base.data, "cam_left", base.stereo.height, base.stereo.width)
+    plots.lattice_in_image(som.w, som.lattice, image, out / "lattice_left_camera.png")
+    plots.reached_3d(result, out / "reached_3d.png")
+    plots.error_map(result, out / "error_map_coarse.png", move=0)
+    plots.error_map(result, out / "error_map_final.png", move=result.moves - 1)
+
+
+def run() -> None:
+    """Console entry point ``visuomotor-evaluate``."""
+    cli.run(main)
+
+
+if __name__ == "__main__":
+    run()

@@ -1,0 +1,56 @@
+"""Rendered marker sensing (whole images and foveated) against the exact projection, by the
+fraction of the marker that the robot hides.
+
+    .venv/bin/python scripts/sensing_accuracy.py --poses 400 [--image-size 320x240] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
+from envs.cli import common as cli
+from envs.cli import train
+from envs.studies.sensing_accuracy import measure, table
+
+
+def main(argv: list[str] | None = None) -> dict:
+    p = cli.parser(__doc__)
+    p.add_argument("--poses", type=cli.positive_int, default=400, help="random poses per arm")
+    p.add_argument("--image-size", type=train.parse_image_size, default="320x240",
+                   help="sensing images WIDTHxHEIGHT")  # fmt: skip
+    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    p.add_argument("--json", type=Path, help="also write the rows here")
+    args = p.parse_args(argv)
+    results = {}
+    for env_id in ("RiacsReach-v0", "PumaReach-v0"):
+        env = gym.make(env_id, sensing="render", control="kinematic", image_size=args.image_size)
+        env.reset(seed=args.seed)
+        rows = table(measure(env, args.poses, np.random.default_rng(args.seed)))
+        env.close()
+        results[env_id] = rows
+        print(f"{env_id}: {args.poses} poses, 2 cameras, errors in px against the projection")
+        print(f"{'hidden':>11} {'views':>6}   {'whole: seen, mean, max':>24}   "
+              f"{'foveated: seen, mean, max':>26}")  # fmt: skip
+        for r in rows:
+            line = f"{r['hidden_from']:>4.2f}-{r['hidden_to']:<4.2f}  {r['views']:>6}"
+            for name in ("whole", "foveated"):
+                line += (f"   {r[name + '_visible'] * 100:>6.1f}% {r[name + '_mean_px']:>7.3f}"
+                         f" {r[name + '_max_px']:>7.3f}")  # fmt: skip
+            print(line)
+    if args.json is not None:
+        args.json.write_text(json.dumps(results, indent=1))
+    return results
+
+
+def run() -> None:
+    """Console entry point ``visuomotor-sensing-accuracy``."""
+    cli.run(main)
+
+
+if __name__ == "__main__":
+    run()

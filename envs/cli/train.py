@@ -1,0 +1,162 @@
+"""Train the visuomotor SOM on a reach env, headless, with checkpoints and held-out evaluations.
+
+    .venv/bin/python scripts/train.py --env RiacsReach-v0 --trials 10000 --out runs/riacs
+    .venv/bin/python scripts/train.py --out runs/riacs --resume   # continue a stopped run
+
+Writes OUT/som.npz (the checkpoint: the map, where the run stands, the simulation state; it
+loads as a map) and OUT/metrics.jsonl (a held-out evaluation every --eval-every trials: errors
+after the coarse move and each fine move in mm, % of the robot's reach and pixels).
+
+Ctrl-C or SIGTERM finishes the current trial, saves and exits (130 or 143); --resume then
+continues exactly as if the run had never stopped, also after a kill or a power cut. One
+process at a time may write to OUT; a fresh run refuses a folder that holds a run unless
+--force. On --resume only --trials (to extend the run) and --checkpoint-every may change.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import fields
+from pathlib import Path
+
+from tqdm import tqdm
+
+import envs  # noqa: F401  (registers the envs)
+from envs.cli import common as cli
+from envs.harness.stopping import SignalStop, StopRequested
+from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
+from envs.reach import SENSING_MODES
+
+
+def parse_lattice(text: str) -> tuple[int, ...]:
+    try:
+        shape = tuple(int(n) for n in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--lattice wants sizes like 12,7,4, got {text!r}"
+        ) from None
+    if not shape or min(shape) < 1:
+        raise argparse.ArgumentTypeError(f"--lattice sizes must be positive, got {text!r}")
+    return shape
+
+
+def _text(value: object) -> str:
+    """A setting as it is written on the command line."""
+    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
+
+
+def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str]) -> list[str]:
+    """Options given with --resume that differ from the run's and may not change."""
+    out = []
+    for f in fields(RunConfig):
+        if f.name in given and f.name not in RESUMABLE:
+            ours, theirs = getattr(args, f.name), getattr(stored, f.name)
+            if ours != theirs:
+                name = f.name.replace("_", "-")
+                out.append(f"--{name} {_text(ours)} (the run has {_text(theirs)})")
+    return out
+
+
+def parse_image_size(text: str) -> tuple[int, int]:
+    """'640x480' (width x height) -> (height, width)."""
+    try:
+        width, height = (int(n) for n in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--image-size wants WIDTHxHEIGHT pixels like 640x480, got {text!r}"
+        ) from None
+    return height, width
+
+
+def main(argv: list[str] | None = None) -> Path:
+    d = RunConfig()
+    p = cli.parser(__doc__)
+    p.add_argument("--env", default=d.env, choices=("RiacsReach-v0", "PumaReach-v0"))
+    p.add_argument("--trials", type=cli.positive_int, default=d.trials)
+    p.add_argument("--seed", type=cli.nonnegative_int, default=d.seed)
+    p.add_argument("--lattice", type=parse_lattice, default=d.lattice, help="e.g. 12,7,4")
+    p.add_argument("--rule", default=d.rule, choices=("mrs", "brause"))
+    p.add_argument(
+        "--protocol",
+        default=d.protocol,
+        choices=("mrs", "brause"),
+        help="mrs: MRS loop with this project's additions; brause: Brause's own (coarse Θ_c, "
+        "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
+    )
+    p.add_argument("--sensing", default=d.sensing, choices=SENSING_MODES)
+    p.add_argument("--control", default=d.control, choices=("servo", "kinematic"))
+    height, width = d.image_size
+    p.add_argument("--image-size", type=parse_image_size, default=f"{width}x{height}",
+                   help="sensing images WIDTHxHEIGHT, e.g. 640x480")  # fmt: skip
+    p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
+    p.add_argument("--eval-every", type=cli.positive_int, default=d.eval_every, help="trials")
+    p.add_argument("--eval-trials", type=cli.positive_int, default=d.eval_trials, help="targets")
+    p.add_argument("--checkpoint-every", type=cli.positive_int, default=1000, help="trials")
+    p.add_argument("--out", type=Path, default=Path("runs/train"))
+    p.add_argument("--resume", action="store_true", help="continue the run saved in --out")
+    p.add_argument("--force", action="store_true", help="start over in a folder holding a run")
+    args = p.parse_args(argv)
+
+    with SignalStop() as stop:
+        if args.resume:
+            given = cli.given_options(p, argv)
+            if args.force:
+                cli.fail("--force starts a run over; it cannot be combined with --resume")
+            conflicts = resume_conflicts(Trainer.stored_config(args.out), args, given)
+            if conflicts:
+                cli.fail(
+                    f"on --resume only --trials and --checkpoint-every may change, but "
+                    f"{'; '.join(conflicts)}; leave them out or train a new run"
+                )
+            trainer = Trainer.resume(args.out, args.trials if "trials" in given else None)
+        else:
+            config = RunConfig(
+                env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
+                trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
+                protocol=args.protocol, image_size=args.image_size,
+                eval_every=args.eval_every, eval_trials=args.eval_trials,
+            )  # fmt: skip
+            trainer = Trainer(config, args.out, force=args.force)
+        try:
+            train(trainer, args.checkpoint_every, stop)
+        finally:
+            trainer.close()
+    print(f"trained {trainer.trial} trials; map in {args.out / MAP_FILE}")
+    return args.out
+
+
+def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:
+    """Run ``trainer`` with a progress bar; on a stop signal say where it stopped and exit."""
+    bar = tqdm(
+        total=trainer.config.trials,
+        initial=trainer.trial,
+        unit="trial",
+        file=sys.stderr,
+        mininterval=0.5,
+    )
+
+    def progress(trial: int, running: dict[str, float]) -> None:
+        bar.set_postfix(
+            coarse_mm=f"{running['coarse_mm']:.1f}",
+            fine_mm=f"{running['fine_mm']:.2f}",
+            refresh=False,
+        )
+        bar.update(trial - bar.n)
+
+    try:
+        trainer.run(checkpoint_every=checkpoint_every, progress=progress, stop=stop)
+    except StopRequested as exc:
+        bar.close()
+        print(f"{exc} at trial {trainer.trial}; checkpoint saved, continue with --resume")
+        raise SystemExit(exc.exit_code) from None
+    bar.close()
+
+
+def run() -> None:
+    """Console entry point ``visuomotor-train``."""
+    cli.run(main)
+
+
+if __name__ == "__main__":
+    run()

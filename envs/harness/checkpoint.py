@@ -1,0 +1,129 @@
+"""The checkpoint unit of a training run: one file, written atomically, that holds the map, where
+the run stands, the env's full simulation state and random generator, and how many metrics rows
+belong to it, and that says which robot, joints, sensing, image size and lattice it is for.
+
+The unit is a :class:`~learners.som.controller.VisuomotorSOM` file with two more entries (``run``:
+JSON, ``sim_state``: the MuJoCo integration state), so ``VisuomotorSOM.load(unit)`` reads its map.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from learners.persistence import CheckpointError, load_npz, save_npz
+from learners.som.controller import FORMAT_VERSION, KIND, VisuomotorSOM
+
+#: The unit's file name in a run folder (the map file the scripts load).
+CHECKPOINT_FILE = "som.npz"
+_RUN, _SIM = "run", "sim_state"
+#: time, qpos, qvel, act, qacc_warmstart, ctrl, applied forces, mocap pose, ...: everything
+#: mj_step reads, so that a restored simulation continues bit for bit.
+SIM_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+#: What a checkpoint is for; a map is only meaningful on the env it was trained on.
+IDENTITY_KEYS = ("robot", "joints", "sensing", "image_size", "lattice")
+
+
+def identity(env: Any, lattice: tuple[int, ...]) -> dict[str, Any]:
+    """Robot, joints, sensing, image size [height, width] (px) and lattice of a map on ``env``."""
+    base = env.unwrapped
+    return {
+        "robot": base.robot,
+        "joints": int(base.joints),
+        "sensing": base.sensing,
+        "image_size": [int(base.image_height), int(base.image_width)],
+        "lattice": [int(n) for n in lattice],
+    }
+
+
+def get_sim_state(env: Any) -> np.ndarray:
+    """The env's MuJoCo integration state, (n,) float64."""
+    base = env.unwrapped
+    state = np.empty(mujoco.mj_stateSize(base.model, SIM_STATE))
+    mujoco.mj_getState(base.model, base.data, state, SIM_STATE)
+    return state
+
+
+def set_sim_state(env: Any, state: np.ndarray) -> None:
+    """Restore a state from :func:`get_sim_state` (and recompute positions from it)."""
+    base = env.unwrapped
+    size = mujoco.mj_stateSize(base.model, SIM_STATE)
+    if state.shape != (size,) or state.dtype != np.float64 or not np.isfinite(state).all():
+        raise CheckpointError(
+            f"simulation state is {state.dtype} {state.shape}, this model needs {size} finite "
+            "float64 numbers; the checkpoint is damaged or from another model"
+        )
+    mujoco.mj_setState(base.model, base.data, state, SIM_STATE)
+    mujoco.mj_forward(base.model, base.data)
+
+
+def write_unit(
+    path: str | os.PathLike, som: VisuomotorSOM, run: dict[str, Any], sim_state: np.ndarray
+) -> Path:
+    """Write the map, ``run`` (JSON-able) and the simulation state to ``path`` atomically."""
+    config, arrays = som.state()
+    extra = {_RUN: np.array(json.dumps(run, sort_keys=True)), _SIM: sim_state}
+    return save_npz(path, KIND, FORMAT_VERSION, config, {**arrays, **extra})
+
+
+def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
+    """(run, simulation state) of a unit; CheckpointError for a plain map or a damaged file."""
+    _, arrays = load_npz(path, KIND, FORMAT_VERSION)
+    if _RUN not in arrays or _SIM not in arrays:
+        raise CheckpointError(f"{path}: a map without a training run's state; cannot resume it")
+    try:
+        run = json.loads(str(arrays[_RUN]))
+        missing = {"config", "identity", "trial"} - set(run)
+    except (ValueError, TypeError) as exc:
+        raise CheckpointError(f"{path}: the run's state is damaged ({exc})") from exc
+    if missing:
+        raise CheckpointError(f"{path}: the run's state lacks {sorted(missing)}; damaged file")
+    return run, arrays[_SIM]
+
+
+def read_identity(path: str | os.PathLike) -> dict[str, Any] | None:
+    """The identity recorded in a unit, or None for a plain map file."""
+    _, arrays = load_npz(path, KIND, FORMAT_VERSION)
+    return read_unit(path)[0]["identity"] if _RUN in arrays else None
+
+
+def check_identity(
+    path: str | os.PathLike, found: dict[str, Any], wanted: dict[str, Any], keys: tuple[str, ...]
+) -> None:
+    """CheckpointError naming both sides if ``found`` and ``wanted`` differ in any of ``keys``."""
+    bad = [k for k in keys if found.get(k) != wanted.get(k)]
+    if bad:
+        ours = ", ".join(f"{k}={found.get(k)!r}" for k in bad)
+        theirs = ", ".join(f"{k}={wanted.get(k)!r}" for k in bad)
+        raise CheckpointError(
+            f"{path} was trained for {ours}, but this env has {theirs}; use a checkpoint of "
+            "this setting or choose the env it was trained on"
+        )
+
+
+def check_map_fits(path: str | os.PathLike, som: VisuomotorSOM, env: Any) -> None:
+    """Refuse a map trained for another robot, joint set or image size than ``env``'s.
+
+    A unit names its robot, joints and image size; a plain map file is checked by its joint
+    ranges, which differ between robots and joint sets. Sensing may differ (both give pixels).
+    """
+    base = env.unwrapped
+    recorded = read_identity(path)
+    if recorded is not None:
+        keys = ("robot", "joints", "image_size")
+        check_identity(path, recorded, identity(env, som.lattice), keys)
+    lower, upper = base.joint_lower, base.joint_upper
+    if som.lower.shape != lower.shape or not (
+        np.allclose(som.lower, lower) and np.allclose(som.upper, upper)
+    ):
+        raise CheckpointError(
+            f"{path} was trained for joint ranges {np.round(som.lower, 3).tolist()} .. "
+            f"{np.round(som.upper, 3).tolist()} rad, but this env ({base.robot}, {base.joints} "
+            f"joints) has {np.round(lower, 3).tolist()} .. {np.round(upper, 3).tolist()}; use a "
+            "map of this robot"
+        )

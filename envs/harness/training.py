@@ -1,0 +1,297 @@
+"""Training a learner on a reach env, trial by trial, with held-out evaluations and checkpoints
+from which a run continues exactly as if it had never stopped: after Ctrl-C, SIGTERM, SIGKILL or
+a power cut, ``Trainer.resume`` gives the arrays, generator states and metrics of an unbroken run.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from envs.harness.checkpoint import (
+    CHECKPOINT_FILE,
+    check_identity,
+    check_map_fits,
+    get_sim_state,
+    identity,
+    read_unit,
+    set_sim_state,
+    write_unit,
+)
+from envs.harness.evaluation import evaluate
+from envs.harness.run_folder import METRICS_FILE, RunFolder, truncate_metrics
+from envs.harness.stopping import SignalStop, StopRequested
+from envs.harness.trials import learn_from, run_trial
+from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
+from learners.persistence import CheckpointError
+from learners.som.controller import VisuomotorSOM
+
+#: The checkpoint unit is also the run's map file (``VisuomotorSOM.load`` reads it).
+MAP_FILE = CHECKPOINT_FILE
+#: Run settings that ``--resume`` may change: ``trials`` (to go on past the old end; the map's
+#: schedules then stay at their final values). Everything else defines the run.
+RESUMABLE = ("trials",)
+#: The held-out targets come from the env seeded with seed + EVAL_SEED_OFFSET, never trained on.
+EVAL_SEED_OFFSET = 10_000
+#: Targets the cameras see before training, whose pixel box spreads the map's w ...
+INIT_TARGETS = 200
+#: ... drawn with seed + this (neither a training nor a held-out seed).
+INIT_SEED_OFFSET = 30_000
+#: Weight of the newest trial in the running errors shown on the progress bar.
+RUNNING_WEIGHT = 0.02
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Everything that defines a training run (stored in the checkpoint)."""
+
+    env: str = "RiacsReach-v0"
+    sensing: str = "project"
+    control: str = "kinematic"
+    seed: int = 0
+    trials: int = 10_000
+    lattice: tuple[int, ...] = (12, 7, 4)
+    rule: str = "mrs"
+    protocol: str = "mrs"  # or "brause": Brause's coarse move, fine move (3.7), learning
+    keep_arm: bool = False
+    eval_every: int = 1000
+    eval_trials: int = 200
+    fine_moves: int = 2
+    refine: bool = True
+    abar: str = "local-fit"  # Ā of the test-time fine moves (training moves use the average)
+    image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH)  # sensing images, px
+
+    def __post_init__(self) -> None:  # tuples also when read back from JSON lists
+        object.__setattr__(self, "lattice", tuple(int(n) for n in self.lattice))
+        object.__setattr__(self, "image_size", tuple(int(n) for n in self.image_size))
+
+    def make_env(self, seed_offset: int = 0) -> gym.Env:
+        env = gym.make(
+            self.env, sensing=self.sensing, control=self.control, image_size=self.image_size
+        )
+        env.reset(seed=self.seed + seed_offset)
+        return env
+
+
+def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
+    """A fresh map for ``env`` from what a robot knows before it learns: w spread over the box
+    of the first INIT_TARGETS targets its cameras see, every θ_r at the taught pose (the MJCF
+    keyframe ``ready``), within the joint ranges. Neither the kinematics, an IK nor the camera
+    model is used.
+
+    The targets are drawn with a generator of seed + INIT_SEED_OFFSET, and the env's own
+    generator is restored afterwards, so the training targets do not change.
+    """
+    base = env.unwrapped
+    saved = base.np_random
+    base.np_random = np.random.default_rng(config.seed + INIT_SEED_OFFSET)
+    pixels = np.zeros((INIT_TARGETS, 4))
+    try:
+        for i in range(INIT_TARGETS):
+            base.reset()
+            pixels[i] = base.sensed_target()
+    finally:
+        base.np_random = saved
+    seen = pixels[np.all(np.isfinite(pixels), axis=1)]  # (n, 4)
+    if len(seen) < 2:
+        raise RuntimeError(
+            f"{config.env}: the cameras saw {len(seen)} of {INIT_TARGETS} targets; check the "
+            "scene's cameras (sensing needs the targets in view)"
+        )
+    joints = [base.model.joint(f"joint{i + 1}").qposadr[0] for i in range(base.joints)]
+    ready = base.model.key("ready").qpos[joints]
+    return VisuomotorSOM(
+        base.joint_lower,
+        base.joint_upper,
+        lattice=config.lattice,
+        rule=config.rule,
+        protocol=config.protocol,
+        refine=config.refine,
+        abar=config.abar,
+        t_max=config.trials,
+        rng=np.random.default_rng(config.seed),
+        input_low=seen.min(axis=0),
+        input_high=seen.max(axis=0),
+        theta_init=ready.copy(),
+    )
+
+
+class Trainer:
+    """Runs ``config.trials`` training trials, evaluating every ``eval_every`` trials.
+
+    The folder ``out`` is locked while the trainer exists (``close()`` releases it) and holds
+    the checkpoint unit (``som.npz``: map, trainer state, simulation state, env generator,
+    metrics position) and ``metrics.jsonl`` (one held-out evaluation per row).
+
+    Args:
+        config: the run; out: its folder; force: start over in a folder that holds a run.
+    Raises:
+        RunFolderError: another process writes to ``out``, or ``out`` holds a run and not
+            ``force``.
+    """
+
+    def __init__(self, config: RunConfig, out: Path, force: bool = False) -> None:
+        folder = RunFolder(out)
+        try:
+            folder.claim_fresh((CHECKPOINT_FILE, METRICS_FILE), force)
+            self._build(config, folder)
+            self.pending_eval = True  # the evaluation of the untrained map, trial 0
+            self.save()  # from here on every kill can be resumed
+        except BaseException:
+            folder.release()
+            raise
+
+    def _build(self, config: RunConfig, folder: RunFolder) -> None:
+        self.config, self.folder, self.out = config, folder, folder.path
+        self.env = config.make_env()
+        self.som = initial_map(config, self.env)
+        self.trial, self.metrics_rows, self.pending_eval = 0, 0, False
+        self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}
+
+    # -- checkpoints ---------------------------------------------------------------------------
+
+    @staticmethod
+    def stored_config(out: Path) -> RunConfig:
+        """The configuration of the run saved in ``out`` (CheckpointError if there is none)."""
+        path = Path(out) / CHECKPOINT_FILE
+        if not path.is_file():
+            raise CheckpointError(f"{path}: no checkpoint to resume; train without --resume")
+        stored = read_unit(path)[0]["config"]
+        try:
+            return RunConfig(**{**stored, "lattice": tuple(stored["lattice"])})
+        except TypeError as exc:
+            raise CheckpointError(f"{path}: the run's configuration is damaged ({exc})") from exc
+
+    @classmethod
+    def resume(cls, out: Path, trials: int | None = None) -> Trainer:
+        """Continue the run saved in ``out``; ``trials`` extends (or shortens) its end."""
+        trainer = cls.__new__(cls)
+        folder = RunFolder(out)
+        try:
+            path = folder.path / CHECKPOINT_FILE
+            config = cls.stored_config(out)
+            run, sim_state = read_unit(path)
+            if trials is not None:
+                if trials < run["trial"]:
+                    raise CheckpointError(
+                        f"--trials {trials} is below the {run['trial']} trials this run has done"
+                    )
+                config = replace(config, trials=trials)
+            trainer._build(config, folder)
+            wanted = identity(trainer.env, config.lattice)
+            check_identity(path, run["identity"], wanted, tuple(wanted))
+            trainer.som = VisuomotorSOM.load(path)
+            check_map_fits(path, trainer.som, trainer.env)
+            lattice = {"lattice": list(trainer.som.lattice)}
+            check_identity(path, lattice, {"lattice": list(config.lattice)}, ("lattice",))
+            trainer.trial, trainer.running = int(run["trial"]), dict(run["running"])
+            trainer.metrics_rows, trainer.pending_eval = run["metrics_rows"], run["pending_eval"]
+            base = trainer.env.unwrapped
+            base.np_random.bit_generator.state = run["env_rng"]
+            set_sim_state(trainer.env, sim_state)
+            truncate_metrics(folder.path / METRICS_FILE, trainer.metrics_rows)
+        except (KeyError, TypeError, ValueError) as exc:
+            folder.release()
+            if isinstance(exc, CheckpointError):
+                raise
+            raise CheckpointError(f"{out}: the run's state is damaged ({exc!r})") from exc
+        except BaseException:
+            folder.release()
+            raise
+        return trainer
+
+    def save(self) -> None:
+        """Write the checkpoint unit (atomically: a kill leaves the previous one intact)."""
+        run = {
+            "config": asdict(self.config),
+            "identity": identity(self.env, self.config.lattice),
+            "trial": self.trial,
+            "running": self.running,
+            "metrics_rows": self.metrics_rows,
+            "pending_eval": self.pending_eval,
+            "env_rng": self.env.unwrapped.np_random.bit_generator.state,
+        }
+        write_unit(self.out / CHECKPOINT_FILE, self.som, run, get_sim_state(self.env))
+
+    # -- the loop ------------------------------------------------------------------------------
+
+    def run(
+        self,
+        checkpoint_every: int = 1000,
+        progress: Callable[[int, dict[str, float]], None] | None = None,
+        stop: SignalStop | None = None,
+    ) -> None:
+        """Train until ``config.trials``; checkpoint every ``checkpoint_every`` trials and at
+        the end.
+
+        SIGINT and SIGTERM (noted by ``stop``, or by a :class:`SignalStop` installed here) let
+        the current trial finish, abandon a held-out evaluation (redone on resume), save and
+        raise :class:`StopRequested`. Any other exception leaves the last checkpoint as it is.
+        """
+        if stop is None:
+            with SignalStop() as own:
+                return self.run(checkpoint_every, progress, own)
+        try:
+            while True:
+                if self.pending_eval:
+                    with stop.abandonable():
+                        row = self.held_out()
+                    self._log(row)
+                    self.pending_eval = False
+                    if self.trial == self.config.trials or self.trial % checkpoint_every == 0:
+                        self.save()
+                if self.trial >= self.config.trials:
+                    break
+                stop.check()
+                self.train_one()
+                self.pending_eval = (
+                    self.trial % self.config.eval_every == 0 or self.trial == self.config.trials
+                )
+                if self.trial % checkpoint_every == 0 and not self.pending_eval:
+                    self.save()
+                if progress is not None:
+                    progress(self.trial, self.running)
+        except StopRequested:
+            self.som.reset()  # as after every evaluation; the next trial resets it anyway
+            self.save()
+            raise
+        self.save()
+
+    def train_one(self) -> None:
+        trial = run_trial(
+            self.env, self.som, fine_moves=1, keep_arm=self.config.keep_arm, explore=True
+        )
+        learn_from(self.som, trial)
+        self.trial += 1
+        for key, k in (("coarse_mm", 0), ("fine_mm", 1)):
+            if len(trial.distances) > k:
+                new = trial.distances[k] * 1e3
+                old = self.running[key]
+                self.running[key] = new if np.isnan(old) else old + RUNNING_WEIGHT * (new - old)
+
+    def held_out(self) -> dict[str, Any]:
+        """Evaluate on the fixed held-out targets (without learning)."""
+        env = self.config.make_env(EVAL_SEED_OFFSET)
+        try:
+            result = evaluate(env, self.som, self.config.eval_trials, self.config.fine_moves)
+        finally:
+            env.close()
+            self.som.reset()
+        summary = result.summary()
+        del summary["microseconds_per_query"]  # wall time: would make reruns differ
+        return {"trial": self.trial, "learned": self.som.t, **summary}
+
+    def _log(self, row: dict[str, Any]) -> None:
+        with open(self.out / METRICS_FILE, "a") as f:
+            f.write(json.dumps(row, allow_nan=False) + "\n")
+        self.metrics_rows += 1
+
+    def close(self) -> None:
+        self.env.close()
+        self.folder.release()

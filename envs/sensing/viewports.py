@@ -1,0 +1,287 @@
+"""Several camera views in one off-screen buffer: one render per view, one read-back for all.
+
+Each :class:`View` is a camera drawn into its own viewport, either its whole image or a *window*:
+an axis-aligned part of the camera's image drawn at a higher pixel density, as an off-centre
+frustum (the near-plane rectangle of that part). Colour and depth come back in one
+``mjr_readPixels``; depth is metric (m along the optical axis), used to tell which side of an edge
+is nearer the camera.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from envs.sensing.rendering import (
+    SENSING_OFF_FLAGS,
+    check_gl_allowed,
+    gl_start_error,
+    mark_gl_started,
+)
+
+#: Slices and stacks of the built-in meshes (spheres, capsules, cylinders): 10° facets keep a
+#: sphere's outline within 1 - cos 5° = 0.4 % of its radius of a circle. MuJoCo's default
+#: 28 × 16 (up to 1.9 %) misplaces an 82 %-hidden marker by 0.52 px (tests/test_occlusion.py);
+#: 64 × 64 measured no more accurate (scripts/sensing_accuracy.py) and draws a window 3-4 times
+#: slower, since the robot's cylinders and capsules get as many triangles.
+SPHERE_SLICES = 36
+SPHERE_STACKS = 18
+#: mjtGeom values of the capsule and the cylinder (bounded by capsules, see _bounding_capsules).
+mjGEOM_CAPSULE, mjGEOM_CYLINDER = 3, 5
+#: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
+SQUARE_PIXEL_TOL = 1e-5
+
+
+@dataclass(frozen=True)
+class Window:
+    """A part of a camera's base image drawn at ``density`` pixels per base pixel.
+
+    ``left``, ``top`` are the window's left and top *edges* in base pixel coordinates (the
+    centre of base pixel (row i, column j) is (u, v) = (j, i), its edges at ±0.5); ``width``,
+    ``height`` its size in window pixels. Window pixel (i, j) has its centre at base
+    (left + (j + 0.5) / density, top + (i + 0.5) / density).
+
+    A window draws only the geoms that can reach into it: those whose bounding capsule (a
+    link's own, or a bounding sphere) meets its frustum, nearer than ``depth`` (m along the
+    optical axis). Sensing a marker at most that deep gives the same result: a geom wholly
+    behind it can neither hide it nor change its outline (an edge against anything farther
+    counts as the sphere's own edge either way).
+    """
+
+    left: float
+    top: float
+    width: int
+    height: int
+    density: float = 1.0
+    depth: float = math.inf
+
+    @classmethod
+    def full(cls, height: int, width: int) -> Window:
+        """The whole base image at its own density."""
+        return cls(-0.5, -0.5, width, height, 1.0)
+
+    def to_base(self, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Window pixel (column, row) arrays, (n,) each, -> base pixels (n, 2)."""
+        return np.stack(
+            [self.left + (cols + 0.5) / self.density, self.top + (rows + 0.5) / self.density], -1
+        )
+
+
+@dataclass(frozen=True)
+class View:
+    """One camera into one viewport: camera name, its base intrinsics (pixels) and the window
+    (None: the model's own frustum over the whole image)."""
+
+    camera: str
+    focal: np.ndarray  # (2,) px of the base image
+    center: np.ndarray  # (2,) px of the base image
+    window: Window
+
+
+class ViewportRenderer:
+    """Renders views side by side into one off-screen buffer of the model and reads them back.
+
+    Created lazily (so envs pickle); the sensing settings of :class:`CameraRenderer` apply (no
+    shadows, reflections, skybox, textures or multisampling).
+
+    Args:
+        model: the MuJoCo model; its off-screen buffer is enlarged, if needed, to
+            (max_height, max_width) when the context is made.
+    """
+
+    def __init__(self, model, max_height: int, max_width: int) -> None:
+        self.model, self.max_height, self.max_width = model, max_height, max_width
+        self._gl = self._context = self._scene = None
+        self._options: dict = {}  # geom groups -> mujoco.MjvOption
+        self._cameras: dict = {}  # camera name -> mujoco.MjvCamera
+        self._geoms: dict = {}  # (groups, scene geoms) -> scene's model geoms, their ids
+
+    def _start(self) -> None:
+        import mujoco
+
+        check_gl_allowed()
+        g, q = self.model.vis.global_, self.model.vis.quality
+        saved = (g.offwidth, g.offheight, q.offsamples, q.numslices, q.numstacks)
+        g.offwidth, g.offheight = max(g.offwidth, self.max_width), max(g.offheight, self.max_height)
+        q.offsamples = 0
+        q.numslices, q.numstacks = SPHERE_SLICES, SPHERE_STACKS  # see SPHERE_SLICES
+        try:
+            self._gl = mujoco.GLContext(g.offwidth, g.offheight)
+            self._gl.make_current()
+            self._context = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_100)
+        except Exception as exc:  # the GL libraries raise many different types
+            raise gl_start_error(exc) from exc
+        finally:
+            g.offwidth, g.offheight, q.offsamples, q.numslices, q.numstacks = saved
+        mark_gl_started()
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+        self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
+        for flag in SENSING_OFF_FLAGS:
+            self._scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+
+    def _option(self, groups: tuple[int, ...]):
+        import mujoco
+
+        option = self._options.get(groups)
+        if option is None:
+            option = mujoco.MjvOption()
+            option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = 0
+            option.geomgroup[:] = 0
+            for g in groups:
+                option.geomgroup[g] = 1
+            self._options[groups] = option
+        return option
+
+    def _camera(self, name: str):
+        import mujoco
+
+        cam = self._cameras.get(name)
+        if cam is None:
+            cam = mujoco.MjvCamera()
+            cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+            cam.fixedcamid = self.model.camera(name).id
+            self._cameras[name] = cam
+        return cam
+
+    def _model_geoms(self, groups: tuple[int, ...]) -> tuple[list, np.ndarray]:
+        """The scene's geoms that are model geoms, and their ids (n,), after an update with
+        ``groups`` (the same for every update with the same groups)."""
+        import mujoco
+
+        scene = self._scene
+        key = (groups, scene.ngeom)
+        if key not in self._geoms:
+            geoms = [g for g in scene.geoms[: scene.ngeom] if g.objtype == mujoco.mjtObj.mjOBJ_GEOM]
+            self._geoms[key] = (geoms, np.array([g.objid for g in geoms], dtype=int))
+        return self._geoms[key]
+
+    def render(
+        self, data, views: Sequence[View], groups: Sequence[int]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """RGB (h, w, 3) uint8 and depth (h, w) m of each view, rows top first."""
+        import mujoco
+
+        if self._gl is None:
+            self._start()
+        self._gl.make_current()
+        widths = [v.window.width for v in views]
+        height = max(v.window.height for v in views)
+        if sum(widths) > self.max_width or height > self.max_height:
+            raise ValueError(
+                f"views of {sum(widths)}x{height} px exceed this renderer's "
+                f"{self.max_width}x{self.max_height}; make it larger"
+            )
+        option = self._option(tuple(groups))
+        scene, x = self._scene, 0
+        mujoco.mjv_updateScene(
+            self.model, data, option, None, self._camera(views[0].camera),
+            mujoco.mjtCatBit.mjCAT_ALL, scene,
+        )  # fmt: skip
+        culling = (
+            None  # the scene's model geoms and their bounding capsules, once windows need them
+        )
+        for k, view in enumerate(views):
+            if k > 0:
+                mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
+            hidden = []
+            if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
+                _set_frustum(scene, view)
+                if culling is None:
+                    geoms, ids = self._model_geoms(tuple(groups))
+                    culling = (geoms, *_bounding_capsules(self.model, data, ids))
+                hidden = _hide_outside(scene, *culling, view.window.depth)
+            w = view.window
+            mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, self._context)
+            for geom, kind in hidden:
+                geom.type = kind
+            x += w.width
+        rgb = np.empty((height, x, 3), dtype=np.uint8)
+        raw = np.empty((height, x), dtype=np.float32)
+        mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), self._context)
+        rgb, raw = rgb[::-1], raw[::-1]  # GL rows are bottom first
+        near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
+        out, x = [], 0
+        for view in views:
+            w = view.window
+            rows = slice(height - w.height, height)
+            cols = slice(x, x + w.width)
+            depth = near * far / (far - raw[rows, cols].astype(np.float64) * (far - near))
+            out.append((rgb[rows, cols], depth))
+            x += w.width
+        return out
+
+    def close(self) -> None:
+        if self._gl is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._gl.free()
+            self._gl = self._context = self._scene = None
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_gl": None, "_context": None, "_scene": None, "_options": {},
+                "_cameras": {}, "_geoms": {}}  # fmt: skip
+
+
+def _set_frustum(scene, view: View) -> None:
+    """The near-plane rectangle of the view's window (MuJoCo sets left and right from the
+    viewport's aspect ratio about ``frustum_center``, so pixels must be square)."""
+    (fu, fv), (cu, cv), w = view.focal, view.center, view.window
+    if abs(fu - fv) > SQUARE_PIXEL_TOL * fu:
+        raise ValueError(f"camera {view.camera}: windows need square pixels, focal is {fu}, {fv}")
+    for glcam in scene.camera:
+        near = glcam.frustum_near
+        right = w.left + w.width / w.density
+        bottom = w.top + w.height / w.density
+        glcam.frustum_center = ((w.left + right) / 2 - cu) / fu * near
+        glcam.frustum_width = (right - w.left) / 2 / fu * near  # half-width, used when set
+        glcam.frustum_top = (cv - w.top) / fv * near
+        glcam.frustum_bottom = (cv - bottom) / fv * near
+
+
+def _bounding_capsules(model, data, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Capsules that contain the geoms ``ids`` (n,): segment ends (n, 2, 3) m and radii (n,) m.
+
+    A capsule or cylinder is bounded by the capsule of its own radius about its axis (a long
+    link's bounding sphere would reach far beyond it); any other geom by its bounding sphere
+    (both ends at its centre), a plane (no bounding sphere, rbound 0) by an infinite one."""
+    centres = data.geom_xpos[ids]  # (n, 3)
+    axes = data.geom_xmat[ids][:, 2::3]  # (n, 3) the geoms' local z axes in world
+    size = model.geom_size[ids]
+    kind = model.geom_type[ids]
+    long = (kind == mjGEOM_CAPSULE) | (kind == mjGEOM_CYLINDER)
+    half = np.where(long, size[:, 1], 0.0)[:, None] * axes  # (n, 3)
+    ends = np.stack([centres - half, centres + half], axis=1)
+    reach = np.where(long, size[:, 0], model.geom_rbound[ids])
+    return ends, np.where(reach > 0, reach, np.inf)
+
+
+def _hide_outside(scene, geoms: list, ends: np.ndarray, reach: np.ndarray, depth: float) -> list:
+    """Hide (type NONE) those of ``geoms`` (MjvGeoms of ``scene``, inside capsules of segment
+    ``ends`` (n, 2, 3) m and radii ``reach`` (n,) m) that lie wholly outside the frustum of the
+    scene's camera (after :func:`_set_frustum`: the window's) or beyond ``depth`` (m along the
+    optical axis); returns (geom, type) pairs to restore. Such a geom draws no pixel in the
+    window (or none that matters, see :class:`Window`), but costs its triangles. A capsule is
+    outside a plane when both ends are farther than its radius on the outer side."""
+    import mujoco
+
+    cam = scene.camera[0]
+    (f0, f1, f2), (u0, u1, u2) = cam.forward, cam.up
+    right = (f1 * u2 - f2 * u1, f2 * u0 - f0 * u2, f0 * u1 - f1 * u0)  # forward × up
+    basis = np.array([right, (u0, u1, u2), (f0, f1, f2)])  # rows: camera x right, y up, depth
+    near, centre, half = cam.frustum_near, cam.frustum_center, cam.frustum_width
+    left, right_, bottom, top = centre - half, centre + half, cam.frustum_bottom, cam.frustum_top
+    # Inward normals (camera coordinates) of the frustum's side planes and of the camera plane.
+    normals = np.array(
+        [[near, 0, -left], [-near, 0, right_], [0, near, -bottom], [0, -near, top], [0, 0, 1.0]]
+    )
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    local = (ends - np.asarray(cam.pos)) @ basis.T  # (n, 2, 3) camera coordinates, m
+    side = (local @ normals.T).max(axis=1)  # (n, 5) the nearer end's distance inside each plane
+    outside = (side < -reach[:, None]).any(1) | (local[:, :, 2].min(1) - reach > depth)
+    hidden = [(geoms[i], geoms[i].type) for i in np.flatnonzero(outside)]
+    for g, _ in hidden:
+        g.type = mujoco.mjtGeom.mjGEOM_NONE
+    return hidden

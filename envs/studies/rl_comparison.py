@@ -1,0 +1,218 @@
+"""The visuomotor map against deep RL (Stable-Baselines3) on one reach env and setting.
+
+Every method gets the same budget of environment steps (one step = one move, as the env counts
+it) and is evaluated at the same checkpoints on the same held-out targets: the env reset once
+with ``EVAL_SEED``, then one target per episode of ``MAX_EPISODE_STEPS`` moves. The score of an
+episode is the ground-truth distance (``info["distance"]``) after its last move; a map trial that
+stopped because a marker was not seen keeps the distance where the arm stopped. Stable-Baselines3
+and torch are imported only by :func:`train_sb3` (the ``rl`` extra).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from envs.harness.training import RunConfig, initial_map
+from envs.harness.trials import learn_from, run_trial
+from envs.reach import MAX_EPISODE_STEPS
+
+METHODS = ("map", "sac_her", "sac", "ppo")
+THRESHOLDS = (0.010, 0.005, 0.001)  # m: report the steps needed to reach these mean distances
+EVAL_SEED = 20_000  # held-out targets (training seeds are small integers)
+MAP_TRAIN_MOVES = 2  # a training trial: coarse move + one fine move, as envs.harness.training
+#: Stable-Baselines3 settings: RL Zoo's tuned FetchReach (her.yml) values for the off-policy
+#: agents (the closest published task: a goal env whose episodes are a few moves), and RL Zoo's
+#: Reacher settings (ppo.yml) for PPO. Learning starts after LEARNING_STARTS_FRACTION of the
+#: budget (at most 1000 steps, Zoo's value).
+SAC_KWARGS: dict[str, Any] = {
+    "batch_size": 256,
+    "gamma": 0.95,
+    "learning_rate": 1e-3,
+    "policy_kwargs": {"net_arch": [64, 64], "n_critics": 1},
+}
+#: ``copy_info_dict``: the reward's unseen-marker term is read from each transition's info.
+HER_KWARGS: dict[str, Any] = {
+    "n_sampled_goal": 4,
+    "goal_selection_strategy": "future",
+    "copy_info_dict": True,
+}
+PPO_KWARGS: dict[str, Any] = {
+    "n_steps": 512,
+    "batch_size": 32,
+    "gae_lambda": 0.9,
+    "gamma": 0.9,
+    "n_epochs": 20,
+    "learning_rate": 1e-4,
+    "clip_range": 0.3,
+}
+LEARNING_STARTS, LEARNING_STARTS_FRACTION = 1000, 0.05
+
+
+@dataclass
+class Curve:
+    """One method and seed: mean and median final distance (m) at each checkpoint."""
+
+    method: str
+    seed: int
+    steps: list[int] = field(default_factory=list)
+    mean_m: list[float] = field(default_factory=list)
+    median_m: list[float] = field(default_factory=list)
+    train_seconds: float = 0.0  # wall time spent training (evaluations excluded)
+
+    def add(self, steps: int, final: np.ndarray) -> None:
+        self.steps.append(int(steps))
+        self.mean_m.append(float(np.mean(final)))
+        self.median_m.append(float(np.median(final)))
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def checkpoints(budget: int, count: int) -> list[int]:
+    """``count`` env-step counts, log-spaced, ending at ``budget``."""
+    first = max(budget // 2 ** (count - 1), 1)
+    points = np.unique(np.geomspace(first, budget, count).round().astype(int))
+    return [int(p) for p in points]
+
+
+def evaluate_policy(
+    make_env: Callable[[], gym.Env], act: Callable[[dict], np.ndarray], targets: int
+) -> np.ndarray:
+    """Final ground-truth distance (m) of ``targets`` held-out episodes, (targets,)."""
+    env = make_env()
+    env.reset(seed=EVAL_SEED)
+    final = np.empty(targets)
+    for i in range(targets):
+        obs, info = env.reset()
+        for _ in range(MAX_EPISODE_STEPS):
+            obs, _, _, _, info = env.step(act(obs))
+        final[i] = info["distance"]
+    env.close()
+    return final
+
+
+def _distance_now(env: gym.Env) -> float:
+    """Ground-truth distance (m) of the env's current state (where a stopped trial stopped)."""
+    base = env.unwrapped
+    site = base.model.site(base.spec_robot.sensed[base.joints]).id
+    return math.dist(base.data.mocap_pos[0], base.data.site_xpos[site])
+
+
+def evaluate_map(make_env: Callable[[], gym.Env], som, targets: int) -> np.ndarray:
+    """Like :func:`evaluate_policy` for the map: the same targets, one coarse and
+    ``MAX_EPISODE_STEPS - 1`` fine moves per trial."""
+    env = make_env()
+    env.reset(seed=EVAL_SEED)
+    final = np.empty(targets)
+    for i in range(targets):
+        run_trial(env, som, fine_moves=MAX_EPISODE_STEPS - 1)
+        final[i] = _distance_now(env)
+    env.close()
+    som.reset()
+    return final
+
+
+def train_map(
+    env_id: str, env_kwargs: dict, seed: int, budget: int, points: list[int], targets: int
+) -> Curve:
+    """The visuomotor map (``envs.harness.training``'s trial: coarse + one exploring fine move)."""
+
+    def make_env() -> gym.Env:
+        return gym.make(env_id, **env_kwargs)
+
+    env = make_env()
+    env.reset(seed=seed)
+    config = RunConfig(env=env_id, seed=seed, trials=max(budget // MAP_TRAIN_MOVES, 1))
+    som = initial_map(config, env)
+    curve, steps = Curve("map", seed), 0
+    for point in points:
+        start = time.perf_counter()
+        while steps < point:
+            trial = run_trial(env, som, fine_moves=MAP_TRAIN_MOVES - 1, explore=True)
+            learn_from(som, trial)
+            steps += len(trial.commands)
+        curve.train_seconds += time.perf_counter() - start
+        curve.add(steps, evaluate_map(make_env, som, targets))
+    env.close()
+    return curve
+
+
+def train_sb3(
+    method: str,
+    env_id: str,
+    env_kwargs: dict,
+    seed: int,
+    budget: int,
+    points: list[int],
+    targets: int,
+) -> Curve:
+    """SAC + HER, SAC or PPO on the env with ``normalize=True`` (PPO also under VecNormalize,
+    observations and rewards, as RL Zoo runs it on Reacher)."""
+    from stable_baselines3 import PPO, SAC, HerReplayBuffer
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    kwargs = {**env_kwargs, "normalize": True}
+
+    def make_env() -> gym.Env:
+        return gym.make(env_id, **kwargs)
+
+    venv = make_vec_env(env_id, n_envs=1, seed=seed, env_kwargs=kwargs)
+    starts = min(LEARNING_STARTS, int(LEARNING_STARTS_FRACTION * budget))
+    if method == "ppo":
+        venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=PPO_KWARGS["gamma"])
+        model = PPO("MultiInputPolicy", venv, seed=seed, device="cpu", **PPO_KWARGS)
+    else:
+        her = (
+            {"replay_buffer_class": HerReplayBuffer, "replay_buffer_kwargs": HER_KWARGS}
+            if method == "sac_her"
+            else {}
+        )
+        model = SAC(
+            "MultiInputPolicy",
+            venv,
+            seed=seed,
+            device="cpu",
+            learning_starts=starts,
+            **SAC_KWARGS,
+            **her,
+        )
+
+    def act(obs: dict) -> np.ndarray:
+        if method == "ppo":
+            obs = venv.normalize_obs(obs)
+        return model.predict(obs, deterministic=True)[0]
+
+    curve = Curve(method, seed)
+    for point in points:
+        start = time.perf_counter()
+        if model.num_timesteps < point:
+            model.learn(point - model.num_timesteps, reset_num_timesteps=False)
+        curve.train_seconds += time.perf_counter() - start
+        curve.add(model.num_timesteps, evaluate_policy(make_env, act, targets))
+    venv.close()
+    return curve
+
+
+def run_method(method: str, **kwargs) -> Curve:
+    """Train and evaluate one method and seed (keyword arguments of :func:`train_map`)."""
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    if method == "map":
+        return train_map(**kwargs)
+    return train_sb3(method, **kwargs)
+
+
+def steps_to_reach(curves: list[Curve], threshold: float) -> int | None:
+    """First checkpoint at which the mean over seeds of the mean final distance is ≤ threshold
+    (m), or None. Checkpoints are compared by position (every seed has the same list)."""
+    means = np.mean([c.mean_m for c in curves], axis=0)
+    below = np.flatnonzero(means <= threshold)
+    return int(np.mean([c.steps[below[0]] for c in curves])) if below.size else None

@@ -1,0 +1,190 @@
+"""Sweeps: a grid of training runs, each cell a normal run folder
+(``envs.harness.training.Trainer``) plus its held-out evaluation, one row per cell in a results
+table.
+
+A grid maps each :class:`~envs.harness.training.RunConfig` field (plus ``robot``, "riacs" or
+"puma", for ``env``) to one value or a list of values; the cells are all combinations. ``lattice``
+values are "12x7x4" or one size n for an n×n×n cube. Each cell lives in ``OUT/cells/<name>/``, its
+name made of its values and a hash of its whole configuration, so a cell is found again by
+any sweep that contains it:
+
+    som.npz, metrics.jsonl                 the run folder (resumable, as ``train.py`` writes)
+    attempts.jsonl                         one line per attempt: worker pid, starting trial
+    progress.json                          last checkpointed trial (for progress displays)
+    cell.json                              the cell's results row, written last (= finished)
+
+and ``OUT/cells/<name>.lock``, held while a process works on the cell: a second sweep on the
+same OUT, or a task Ray retries while the first attempt still runs, waits for it and then
+finds the cell finished (or resumes it from its checkpoint if the first attempt died).
+
+Results rows count all held-out trials: a trial that stopped because a marker was not seen
+keeps the distance where it stopped in every later column.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import os
+import shutil
+import time
+from dataclasses import asdict, fields, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from envs.harness.evaluation import evaluate
+from envs.harness.run_folder import locked
+from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer
+from learners.persistence import CheckpointError, write_atomic
+
+ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0"}
+CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
+LOCK_SUFFIX = ".lock"
+#: The axes shown in a cell's folder name (the hash covers everything else).
+NAME_AXES = ("robot", "lattice", "rule", "protocol", "refine", "sensing", "control", "seed")
+
+
+def _fields() -> dict[str, Any]:
+    """RunConfig field -> default value (its type parses the grid's values)."""
+    default = RunConfig()
+    return {f.name: getattr(default, f.name) for f in fields(RunConfig)}
+
+
+def parse_value(axis: str, value: Any) -> Any:
+    """One grid value of ``axis`` as the RunConfig field wants it."""
+    if axis == "robot":
+        if value not in ROBOTS:
+            raise ValueError(f"unknown robot {value!r}; valid robots: {', '.join(ROBOTS)}")
+        return ROBOTS[value]
+    default = _fields()[axis]
+    if axis == "lattice":
+        sizes = [int(value)] * 3 if str(value).isdigit() else str(value).lower().split("x")
+        return tuple(int(n) for n in sizes)
+    if axis == "image_size":
+        return tuple(int(n) for n in str(value).lower().split("x"))
+    if isinstance(default, bool):
+        if str(value).lower() not in ("true", "false", "1", "0"):
+            raise ValueError(f"{axis} takes true or false, got {value!r}")
+        return str(value).lower() in ("true", "1")
+    return type(default)(value)
+
+
+def expand(grid: dict[str, Any]) -> list[RunConfig]:
+    """All cells of ``grid`` (axis -> value or list of values), in a fixed order.
+
+    ``trials_per_neuron`` k (one value) raises each cell's trials to at least k·N."""
+    grid = dict(grid)
+    per_neuron = grid.pop("trials_per_neuron", 0)
+    if isinstance(per_neuron, list):
+        if len(per_neuron) != 1:
+            raise ValueError(f"trials_per_neuron takes one value, got {per_neuron}")
+        per_neuron = per_neuron[0]
+    per_neuron = float(per_neuron)
+    valid = {*_fields(), "robot"}
+    unknown = sorted(set(grid) - valid)
+    if unknown:
+        raise ValueError(f"unknown grid axes {unknown}; valid axes: {', '.join(sorted(valid))}")
+    if "robot" in grid and "env" in grid:
+        raise ValueError("give the arm as robot (riacs, puma) or env, not both")
+    axes = {k: v if isinstance(v, list) else [v] for k, v in grid.items()}
+    values = [[parse_value(k, v) for v in vs] for k, vs in axes.items()]
+    names = ["env" if k == "robot" else k for k in axes]
+    configs = [RunConfig(**dict(zip(names, c, strict=True))) for c in itertools.product(*values)]
+    return [
+        replace(c, trials=max(c.trials, round(per_neuron * math.prod(c.lattice)))) for c in configs
+    ]
+
+
+def cell_name(config: RunConfig) -> str:
+    """Readable, unique folder name: the main axes' values and a hash of the configuration."""
+    values = asdict(config)
+    robot = {v: k for k, v in ROBOTS.items()}.get(config.env, config.env)
+    parts = [robot if axis == "robot" else values.get(axis) for axis in NAME_AXES]
+    text = "_".join(
+        "x".join(map(str, p)) if isinstance(p, (tuple, list)) else str(p)
+        for p in parts
+        if p is not None
+    )
+    digest = hashlib.sha256(json.dumps(values, sort_keys=True).encode()).hexdigest()[:8]
+    return f"{text}_{digest}"
+
+
+def errors_all_counted(distances: np.ndarray) -> np.ndarray:
+    """(n, moves) distances with NaN after a trial stopped -> the distance where it stopped
+    carried forward (a trial with no move at all stays NaN)."""
+    out = distances.copy()
+    for k in range(1, out.shape[1]):
+        missing = np.isnan(out[:, k])
+        out[missing, k] = out[missing, k - 1]
+    return out
+
+
+def _write_json(path: Path, data: Any) -> None:
+    write_atomic(path, lambda f: f.write(json.dumps(data, indent=1).encode()))
+
+
+def run_cell(config: RunConfig, folder: Path, checkpoint_every: int = 1000) -> dict[str, Any]:
+    """Train (or resume) one cell, evaluate it on the held-out targets, write cell.json.
+
+    Returns the cell's results row. A finished cell is returned as it is. Waits while another
+    process works on the same cell (its lock, ``<folder>.lock``).
+    """
+    folder = Path(folder)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    with locked(folder.with_name(folder.name + LOCK_SUFFIX)):
+        return _run_cell(config, folder, checkpoint_every)
+
+
+def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[str, Any]:
+    if (folder / CELL_FILE).is_file():
+        return json.loads((folder / CELL_FILE).read_text())
+    start = time.perf_counter()
+    try:
+        trainer = Trainer.resume(folder)
+    except CheckpointError:  # nothing to resume (or unusable): start the cell afresh
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir(parents=True)
+        trainer = Trainer(config, folder)
+    if trainer.config != config:
+        raise CheckpointError(f"{folder} holds another configuration: {trainer.config}")
+    with open(folder / ATTEMPTS_FILE, "a") as f:
+        f.write(json.dumps({"pid": os.getpid(), "start_trial": trainer.trial}) + "\n")
+
+    def progress(trial: int, running: dict[str, float]) -> None:
+        if trial % checkpoint_every == 0:  # Trainer.run has just saved a checkpoint
+            _write_json(folder / PROGRESS_FILE, {"trial": trial, "pid": os.getpid()})
+
+    try:
+        trainer.run(checkpoint_every=checkpoint_every, progress=progress)
+        env = config.make_env(EVAL_SEED_OFFSET)
+        try:
+            result = evaluate(env, trainer.som, config.eval_trials, config.fine_moves)
+        finally:
+            env.close()
+        som = trainer.som
+    finally:
+        trainer.close()
+    errors_mm = errors_all_counted(result.distances) * 1e3  # (n, moves)
+    row = {
+        "cell": folder.name,
+        **{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(config).items()},
+        "robot": {v: k for k, v in ROBOTS.items()}.get(config.env, config.env),
+        "neurons": som.n_neurons,
+        "n_per_axis": round(som.n_neurons ** (1 / 3), 6),
+        "learned_trials": som.t,
+        "eval_trials": len(errors_mm),
+        "complete_fraction": float(np.mean(np.all(np.isfinite(result.distances), axis=1))),
+        "mean_mm": np.mean(errors_mm, axis=0).round(5).tolist(),
+        "median_mm": np.median(errors_mm, axis=0).round(5).tolist(),
+        "p90_mm": np.percentile(errors_mm, 90, axis=0).round(5).tolist(),
+        "mean_percent_reach": (np.mean(errors_mm, axis=0) / (result.reach * 1e3) * 100)
+        .round(6)
+        .tolist(),
+        "seconds_last_attempt": round(time.perf_counter() - start, 2),
+    }
+    _write_json(folder / CELL_FILE, row)
+    return row

@@ -1,0 +1,146 @@
+"""Running a sweep's cells as Ray tasks, on a local Ray instance or an existing cluster, and
+writing the results table (CSV and JSON).
+
+Finished cells (cell.json present) are skipped. A cell whose worker dies (killed, out of
+memory, node lost) is retried by Ray (``retries`` times) and resumes from its last checkpoint,
+so its result is the same as that of an unbroken run. Ray is optional (extra ``sweep``).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+from collections.abc import Callable
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from envs.harness.training import RunConfig
+from envs.studies.sweep_grid import CELL_FILE, PROGRESS_FILE, cell_name, run_cell
+from learners.persistence import write_atomic
+
+#: Local Ray: this many CPUs (the machine is shared; one cell per CPU).
+DEFAULT_CPUS = 2
+#: Ray retries of a cell whose worker died.
+DEFAULT_RETRIES = 3
+#: Seconds between progress lines while cells run.
+PROGRESS_EVERY_S = 10.0
+TABLE_JSON, TABLE_CSV = "results.json", "results.csv"
+LOOPBACK = "127.0.0.1"
+
+
+def _cell_task(config: dict, folder: str, checkpoint_every: int) -> dict:
+    import envs  # noqa: F401  (registers the envs in the worker; chooses the GL back-end)
+
+    return run_cell(RunConfig(**config), Path(folder), checkpoint_every)
+
+
+def start_ray(address: str | None, num_cpus: int) -> None:
+    """Connect to the cluster at ``address``, or start a local instance on the loopback
+    interface with ``num_cpus`` CPUs, no dashboard and no usage reporting."""
+    try:
+        import ray
+    except ImportError as exc:
+        raise SystemExit(
+            'sweeps need ray: pip install "visuomotor[sweep]" (or make test-sweep)'
+        ) from exc
+    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
+    env_vars = {
+        "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+        "OMP_NUM_THREADS": "1",  # one cell per CPU: no BLAS threads on top
+        "RAY_USAGE_STATS_ENABLED": "0",
+    }
+    if address:
+        ray.init(address=address, runtime_env={"env_vars": env_vars}, log_to_driver=False)
+    else:  # Ray's single-machine mode (as on macOS): the node's address is the loopback one
+        os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"  # for the processes Ray starts
+        ray._private.ray_constants.ENABLE_RAY_CLUSTER = False  # for this one (read at import)
+        ray.init(
+            address="local",  # a new instance, never one a `ray start` left behind
+            num_cpus=num_cpus,
+            include_dashboard=False,
+            _node_ip_address=LOOPBACK,
+            runtime_env={"env_vars": env_vars},
+            log_to_driver=False,
+        )
+
+
+def run_sweep(
+    configs: list[RunConfig],
+    out: Path,
+    address: str | None = None,
+    num_cpus: int = DEFAULT_CPUS,
+    retries: int = DEFAULT_RETRIES,
+    checkpoint_every: int = 1000,
+    log: Callable[[str], None] = print,
+) -> list[dict[str, Any]]:
+    """Run every unfinished cell of ``configs`` under ``out/cells`` and write the table.
+
+    Returns the rows of the finished cells, in the order of ``configs``.
+    """
+    import ray
+
+    cells = Path(out) / "cells"
+    folders = [cells / cell_name(c) for c in configs]
+    todo = [(c, f) for c, f in zip(configs, folders, strict=True) if not (f / CELL_FILE).exists()]
+    log(f"{len(configs)} cells, {len(configs) - len(todo)} finished before, {len(todo)} to run")
+    started_here = not ray.is_initialized()
+    if todo and started_here:
+        start_ray(address, num_cpus)
+    try:
+        task = ray.remote(num_cpus=1, max_retries=retries)(_cell_task)
+        todo.sort(key=lambda cell: -cell[0].trials * math.prod(cell[0].lattice))  # long first
+        pending = {task.remote(asdict(c), str(f), checkpoint_every): f for c, f in todo}
+        failed: list[str] = []
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1, timeout=PROGRESS_EVERY_S)
+            if not ready:
+                log(_progress(pending.values(), configs, folders))
+            for ref in ready:
+                folder = pending.pop(ref)
+                try:
+                    row = ray.get(ref)
+                    log(f"done {folder.name}: mean mm after each move {row['mean_mm']}")
+                except ray.exceptions.RayError as exc:  # the cell raised, or its workers kept dying
+                    failed.append(folder.name)
+                    log(f"failed {folder.name} after {retries} retries: {exc}")
+    finally:
+        if todo and started_here:
+            ray.shutdown()
+    rows = [json.loads((f / CELL_FILE).read_text()) for f in folders if (f / CELL_FILE).exists()]
+    write_table(rows, Path(out))
+    if failed:
+        log(f"{len(failed)} cells failed: {', '.join(failed)}; run the sweep again to retry")
+    return rows
+
+
+def _progress(pending, configs: list[RunConfig], folders: list[Path]) -> str:
+    """One line: cells finished, the checkpointed trial of each started cell, cells waiting."""
+    trials = {f: c.trials for c, f in zip(configs, folders, strict=True)}
+    done = sum((f / CELL_FILE).exists() for f in folders)
+    started = [f for f in pending if (f / PROGRESS_FILE).exists()]
+    parts = [
+        f"{f.name.rsplit('_', 1)[0]} {json.loads((f / PROGRESS_FILE).read_text())['trial']}"
+        f"/{trials[f]}"
+        for f in started
+    ]
+    waiting = len(pending) - len(started)
+    return f"[{done}/{len(folders)} done] " + "; ".join([*parts, f"{waiting} not checkpointed yet"])
+
+
+def write_table(rows: list[dict[str, Any]], out: Path) -> None:
+    """results.json (rows as they are) and results.csv (lists as "a;b;c"), atomically."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(out / TABLE_JSON, lambda f: f.write(json.dumps(rows, indent=1).encode()))
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    text = io.StringIO()
+    writer = csv.DictWriter(text, columns)
+    writer.writeheader()
+    for row in rows:
+        writer.writerow(
+            {k: ";".join(map(str, v)) if isinstance(v, list) else v for k, v in row.items()}
+        )
+    write_atomic(out / TABLE_CSV, lambda f: f.write(text.getvalue().encode()))

@@ -1,0 +1,1 @@
+"""Exact baselines that know the arm and cameras (for comparison, never for learning)."""

@@ -1,0 +1,806 @@
+"""The visuomotor Kohonen map: camera coordinates -> joint angles, learned from the arm's own moves.
+
+Ritter, Martinetz & Schulten (1989), Martinetz, Ritter & Schulten (1990) and Brause (1989) §3.
+Neuron r of a lattice holds w_r (where it sits in input space), θ_r (the joint angles that reach
+there) and A_r (a local linear map, ≈ the inverse Jacobian ∂θ/∂u). The state is three arrays,
+``w`` (N, D), ``theta`` (N, J) and ``A`` (N, J, D), N = prod(lattice), neurons in C order.
+
+Moving (``act``):
+    winner   s = argmin_r |u − w_r|                                                  (Brause 3.4)
+    coarse   θ0 = Σ_r g_r (θ_r + A_r (u − w_r)) / Σ_r g_r,  g_r = exp(−|r − s|² / 2σ'²)
+             (MRS 1990; ``averaging="winner"``: g_r = δ_rs, MRS 1989 and Brause 3.7)
+    fine     θ_{k+1} = θ_k + Ā (u − v_k),  Ā = Σ_r g_r A_r / Σ_r g_r, v_k sensed after θ_k
+             ``abar="local-fit"`` (not in the papers): Ā is instead the value at u of a linear
+             field fitted to the A_r of the winner's lattice box (``learners/som/local_fit.py``);
+             exploratory (training) fine moves keep the average, so the map learned is the
+             same with either; ``abar="average"`` is the MRS Ā.
+             ``refine=True`` (not in the papers): from the second fine move on, Ā first takes
+             the Widrow-Hoff step of the previous fine move, Ā += (Δθ − ĀΔv)Δv^T/|Δv|² (a
+             Broyden update); ``refine=False`` keeps Ā fixed as MRS do.
+             MRS's published moves are ``abar="average", refine=False``.
+
+Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δv = v1 − v0:
+    w_r += ε h_rs (u − w_r),    h_rs = exp(−|r − s|² / 2σ²)     (Brause 3.5 with the Gaussian
+                                  neighbourhood of Ritter, Martinetz & Schulten, his [RITT3])
+    θ_r += ε' h'_rs (θ* − θ_r),  A_r += ε' h'_rs (A* − A_r),  h' of width σ'  (Brause 3.6, 3.8)
+    A* = A_s + (Δθ − A_s Δv) Δv^T / |Δv|²                     (Widrow-Hoff; MRS; Brause 3.10)
+    rule "mrs":    θ* = θ_s + A_s (u − v0)    error sensed after the coarse move (MRS 1989/90)
+    rule "brause": θ* = θ1 + A_s (w_s − v1)   error sensed after the fine move (Brause 3.9)
+All targets are computed from the map before the trial's updates. θ_r are then clipped into the
+joint ranges (not in the papers: when the coarse command is clipped, θ* = θ_s + A_s(u − v0)
+pushes a θ_r that lies beyond a limit further out with every trial, seen on RIACS and PUMA).
+
+Brause states (3.9)/(3.10) for his own protocol: coarse move Θ_c, fine move Θ_c + A_c(x − w_c)
+(3.7), x = u, x_I = v0, x_F = v1. For that protocol the "brause" θ* is literally (3.9),
+Θ_c + A_c(x − x_F), and with Δθ = A_c(x − w_c) the Widrow-Hoff step is (3.10) as printed,
+A_c + A_c((x − x_F) − (w_c − x_I))(x_F − x_I)^T / |x_F − x_I|², since A_c((x − x_F) − (w_c − x_I))
+= A_c(x − w_c) − A_c(x_F − x_I) = Δθ − A_c Δv: the garbled-looking (w_c − x_I) term is what
+makes the bracket the Widrow-Hoff residual. The forms above use the commands actually sent, so
+they also hold for the coarse move with its linear term used here; ``tests/test_som.py``
+checks them against the printed equations for Brause's protocol.
+
+Protocols. ``protocol="mrs"`` is everything above. ``protocol="brause"`` is Brause's own loop
+(§3), paper-faithful, with none of this project's additions:
+    coarse   Θ_c of the winner c alone (no linear term, no averaging)
+    fine     Θ_c + A_c (x − w_c)                                                    (3.7)
+             it does not use the position x_I sensed after the coarse move (x_I only enters
+             learning), so every fine move gives the same command and no ``refine``, no
+             exploration noise
+    learning Θ* = Θ_c + A_c (x − x_F)                                               (3.9)
+             A* = A_c + A_c((x − x_F) − (w_c − x_I)) (x_F − x_I)^T / |x_F − x_I|²  (3.10)
+             w_k += γ h (x − w_k), Θ_k += γ h (Θ* − Θ_k), A_k += γ h (A* − A_k)   (3.5, 3.8)
+             one γ and one h for w, Θ and A (his (3.8) uses "the neighbourhood function h"
+             of (3.2)); h is his step (3.2): 1 for |y_k − y_c| ≤ σ(t), else 0 (σ, the
+             "step-width", from the ``sigma`` schedule); γ(t) = ``schedules.harmonic`` from
+             ``gamma.initial`` to ``gamma.final``, which satisfies (3.3) (γ → 0, no floor).
+    Readings: (3.8) writes u_c only; as in (3.6) every neuron k of N_c moves towards the
+    winner's estimate u*_c. (3.9)/(3.10) assume the fine command Θ_c + A_c(x − w_c) was made;
+    they are computed in the equivalent forms of the commands actually sent, Θ* = θ1 + A_c(w_c −
+    x_F) and A* = A_c + (Δθ − A_c Δv) Δv^T/|Δv|² (the "brause" rule below), which equal the
+    printed ones unless a command was clipped at a joint limit (then the printed forms teach A_c
+    a move the arm did not make: 8 % (RIACS) and 15 % (PUMA) of 4 000 projected training
+    trials with the printed forms).
+    Kept from this project: commands and Θ_k clipped into the joint ranges, trials with
+    |Δv| < ``min_dv`` skipped (the division in 3.10). ``rule``, ``averaging``, ``refine``,
+    ``eps``, ``eps_out``, ``sigma_out`` and ``explore`` have no effect under this protocol.
+    Known weakness (measured on the PUMA, /work/notes/brause-diag.md): with Δθ = A_c(x − w_c),
+    (3.10) is A* = A_c(I + (e − Δv)Δv^T/|Δv|²), e = x − w_c, so A* maps into the range of A_c
+    and only the directions its own moves excite are corrected (median cond A_r 4 -> 26). While
+    A_r is still the random start, γ ≈ 1 with h = 1 over radius 2 copies the Newton estimate
+    (3.9) over whole patches, which can land in another arm configuration (seed 0: 36 neurons
+    by trial 100), where (3.9) then converges. Joint noise on the fine move (not in the paper)
+    keeps A_r conditioned; a smaller γ_i (open in the paper) avoided the flips but costs RIACS;
+    the defaults stay as above.
+
+Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range of Ā, so the
+Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine
+moves made with ``act(u, v, explore=True)`` (training) add N(0, explore(t)²) joint noise.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from learners.base import Controller, check_pixels
+from learners.guards import InputBox, check_finite
+from learners.persistence import CheckpointError, load_npz, save_npz
+from learners.som import kernels
+from learners.som.compiled_path import PRUNED_SEARCH_MIN, CompiledPath
+from learners.som.lattice import Lattice
+from learners.som.local_fit import local_abar
+from learners.som.schedules import Continual, ErrorMonitor, Schedule, harmonic
+
+RULES = ("mrs", "brause")
+#: Trial protocols (see the module docstring): MRS with this project's additions, or Brause §3.
+PROTOCOLS = ("mrs", "brause")
+AVERAGING = ("neighbourhood", "winner")
+#: Ā of the fine moves: MRS's σ'-average of the A_r, or this project's local fit at u.
+ABAR = ("average", "local-fit")
+KERNELS = ("auto", "numba", "numpy")
+KIND = "VisuomotorSOM"
+FORMAT_VERSION = 1
+
+# Schedules x_i -> x_f over t_max trials. The papers' own tables were not available to this
+# project; the starting point is Behera & Kar's implementation of the MRS 1990 algorithm (same
+# 12×7×4 lattice and 10 000 trials; L. Behera & I. Kar, "Intelligent Systems and Control",
+# 2009): ε 1 -> 0.05, σ 2 -> 0.1, ε' 0.9 constant, σ' 2.5 -> 0.01 (σ in lattice units).
+# Changed by measurement on RIACS (10 000 trials, seed 0): ε_f 0.05 -> 0.005 (coarse error
+# 2.1 % -> 1.5 % of the reach) and ε' 0.9 -> 0.1 (a constant 0.9 lets the last trial overwrite
+# θ_r and A_r: 0.93 % -> 0.17 % after two fine moves without ``refine``).
+DEFAULT_EPS = Schedule(1.0, 0.005)
+DEFAULT_SIGMA = Schedule(2.0, 0.1)
+DEFAULT_EPS_OUT = Schedule(0.9, 0.1)
+DEFAULT_SIGMA_OUT = Schedule(2.5, 0.01)
+#: Exploration std of training fine moves, rad (this project's choice; see module notes).
+DEFAULT_EXPLORE = Schedule(0.05, 0.005)
+#: Brause's single rate γ (protocol "brause"), harmonic from 1 to 0.1 at t_max (this project's
+#: choice; he gives no values). RIACS, projected, printed forms of (3.9)/(3.10): 1 -> 0.005 left
+#: 139 mm after the fine move after 10 000 trials, 1 -> 0.1 77 mm after 4 000.
+DEFAULT_GAMMA = Schedule(1.0, 0.1)
+DEFAULT_T_MAX = 10_000
+#: Trials with |Δv| below this (input units, e.g. pixels) are skipped: the Widrow-Hoff step
+#: divides by |Δv|², and a sensed displacement this small is below any detector's resolution.
+DEFAULT_MIN_DV = 1e-3
+#: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
+DEFAULT_A_INIT = 0.1
+#: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
+#: threads, which on 2 shared cores made act_batch 4 times slower.
+_BATCH_BLOCK = 64
+
+ScheduleLike = Schedule | tuple[float, float] | float
+
+
+def _kernel(name: str, axes: int) -> str:
+    """The hot path to use for a lattice of ``axes`` axes: "numba" or "numpy"."""
+    if name not in KERNELS:
+        raise ValueError(f"unknown kernel {name!r}; valid kernels: {', '.join(KERNELS)}")
+    compiled = kernels.available() and axes <= kernels.MAX_AXES
+    if name == "numba" and not compiled:
+        raise ValueError(
+            f'kernel="numba" needs numba (pip install "visuomotor[fast]") and a lattice of at '
+            f'most {kernels.MAX_AXES} axes (got {axes}); use kernel="numpy"'
+        )
+    return "numba" if name == "numba" or (name == "auto" and compiled) else "numpy"
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
+#: Configuration entries of a saved map and their JSON types; a file that lacks one or holds
+#: another type is damaged (hand-edited or foreign). Later versions may add entries.
+_CONFIG_TYPES: dict[str, type | tuple[type, ...]] = {
+    "lattice": list, "input_dim": int, "rule": str, "averaging": str, "refine": bool,
+    "t_max": int, "schedules": dict, "a_init": (int, float), "min_dv": (int, float), "t": int,
+    "skipped": dict, "rng_state": dict,
+}  # fmt: skip
+#: numpy bit generators a saved map may name (never an arbitrary numpy.random attribute).
+_BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
+
+
+def _check_config(config: dict[str, Any]) -> None:
+    """ValueError for a saved configuration with a missing entry, a wrong type or a count < 0."""
+    for key, kind in _CONFIG_TYPES.items():
+        value = config[key]
+        if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+            raise ValueError(f"config entry {key!r} is {value!r}, not of type {kind}")
+    counts = config["skipped"]
+    if config["t"] < 0 or set(counts) != {"not_visible", "small_dv"}:
+        raise ValueError(f"t = {config['t']} or skipped = {counts} is not a valid count")
+    if not all(isinstance(n, int) and n >= 0 for n in counts.values()):
+        raise ValueError(f"skipped = {counts} holds counts that are not integers >= 0")
+    if config["rng_state"].get("bit_generator") not in _BIT_GENERATORS:
+        raise ValueError(f"unknown bit generator in {config['rng_state']}")
+
+
+class VisuomotorSOM(CompiledPath, Controller):
+    """Kohonen lattice with joint outputs and local linear maps (see the module docstring).
+
+    Args:
+        joint_lower, joint_upper: joint ranges (J,), rad; every command is clipped into them.
+        lattice: lattice shape, default (12, 7, 4) = 336 neurons (MRS 1990).
+        input_dim: D, 4 for two cameras' pixels (u1, v1, u2, v2), 3 for Cartesian input.
+        rule: "mrs" or "brause": the θ* the outputs learn towards.
+        averaging: "neighbourhood" (outputs averaged with width σ') or "winner".
+        refine: correct Ā between fine moves of one target (Broyden step; see module notes).
+        abar: Ā of the fine moves, "average" (MRS) or "local-fit" (this project's, at the
+            target; exploratory fine moves keep the average); see module notes.
+        t_max: trials over which the schedules fall from their initial to their final value.
+        eps, sigma: ε(t) and σ(t) of the w update (σ in lattice units).
+        eps_out, sigma_out: ε'(t), σ'(t) of the θ/A update and of the output averaging.
+        explore: std (rad) of the noise of fine commands made with ``explore=True``.
+        rng: a numpy Generator or a seed; the map's only source of randomness.
+        input_low, input_high: (D,) box over which the w_r start uniformly (default [0, 1]^D;
+            pass the image bounds for pixels).
+        theta_init: (J,) start of every θ_r (default the middle of the joint ranges). Pass a
+            pose in the arm configuration that reaches the whole workspace when the middle is
+            not one, e.g. for the PUMA ``wrist_ik(workspace centre, arm=1, elbow=1)``: the map
+            keeps the configuration it starts in.
+        a_init: std of the random start of A_r, as a fraction of mean joint span / mean input
+            span (0 = start at A = 0; training then relies on ``explore``).
+        min_dv: trials with |v1 − v0| below this are skipped (input units).
+        gamma: Brause's single rate for w, Θ and A under protocol "brause" (harmonic from
+            initial to final, see :func:`learners.som.schedules.harmonic`).
+        protocol: "mrs" or "brause" (Brause's own coarse move, fine move (3.7) and learning
+            (3.9)/(3.10) with the step neighbourhood; see the module docstring).
+        continual: a :class:`~learners.som.schedules.Continual` to keep re-adapting after t_max
+            when the sensed error rises (None: the standard schedules, floors from t_max on).
+            It runs the schedules above back; Brause's protocol keeps its own rate γ.
+        kernel: "numba" (compiled hot path, ``learners/som/kernels.py``; needs the extra ``fast``
+            and at most 3 lattice axes), "numpy" (the reference) or "auto" (numba if it can).
+    """
+
+    def __init__(
+        self,
+        joint_lower: np.ndarray,
+        joint_upper: np.ndarray,
+        lattice: tuple[int, ...] = (12, 7, 4),
+        input_dim: int = 4,
+        rule: str = "mrs",
+        averaging: str = "neighbourhood",
+        refine: bool = True,
+        abar: str = "local-fit",
+        t_max: int = DEFAULT_T_MAX,
+        eps: ScheduleLike = DEFAULT_EPS,
+        sigma: ScheduleLike = DEFAULT_SIGMA,
+        eps_out: ScheduleLike = DEFAULT_EPS_OUT,
+        sigma_out: ScheduleLike = DEFAULT_SIGMA_OUT,
+        explore: ScheduleLike = DEFAULT_EXPLORE,
+        rng: np.random.Generator | int | None = None,
+        input_low: np.ndarray | None = None,
+        input_high: np.ndarray | None = None,
+        theta_init: np.ndarray | None = None,
+        a_init: float = DEFAULT_A_INIT,
+        min_dv: float = DEFAULT_MIN_DV,
+        protocol: str = "mrs",
+        gamma: ScheduleLike = DEFAULT_GAMMA,
+        continual: Continual | None = None,
+        kernel: str = "auto",
+    ) -> None:
+        if protocol not in PROTOCOLS:
+            raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
+        self.protocol = protocol
+        if rule not in RULES:
+            raise ValueError(f"unknown rule {rule!r}; valid rules: {', '.join(RULES)}")
+        if averaging not in AVERAGING:
+            raise ValueError(f"unknown averaging {averaging!r}; valid: {', '.join(AVERAGING)}")
+        if abar not in ABAR:
+            raise ValueError(f"unknown abar {abar!r}; valid: {', '.join(ABAR)}")
+        self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
+        self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
+        check_finite(joint_lower=self.lower, joint_upper=self.upper, a_init=a_init, min_dv=min_dv)
+        if self.lower.shape != self.upper.shape or not np.all(self.lower < self.upper):
+            raise ValueError(
+                f"joint_lower {self.lower} and joint_upper {self.upper} need one entry per joint "
+                "with lower < upper"
+            )
+        self.lattice = tuple(int(n) for n in lattice)
+        if not self.lattice or min(self.lattice) < 1:
+            raise ValueError(f"lattice must be a tuple of positive sizes, got {lattice}")
+        if int(input_dim) < 1 or int(t_max) < 1 or not (min_dv >= 0 and a_init >= 0):
+            raise ValueError(
+                f"need input_dim >= 1, t_max >= 1, min_dv >= 0, a_init >= 0; got {input_dim}, "
+                f"{t_max}, {min_dv}, {a_init}"
+            )
+        self.input_dim, self.t_max = int(input_dim), int(t_max)
+        self.rule, self.averaging, self.refine = rule, averaging, bool(refine)
+        self.abar = abar
+        self.eps, self.sigma = Schedule.of(eps), Schedule.of(sigma)
+        self.eps_out, self.sigma_out = Schedule.of(eps_out), Schedule.of(sigma_out)
+        self.explore = Schedule.of(explore)
+        self.gamma = Schedule.of(gamma)
+        harmonic(self.gamma.initial, self.gamma.final, 0, self.t_max)  # raises for a bad gamma
+        self._check_schedules()
+        self.min_dv, self.a_init = float(min_dv), float(a_init)
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        D, J = self.input_dim, self.n_joints
+        low = np.zeros(D) if input_low is None else np.array(input_low, dtype=float).ravel()
+        high = np.ones(D) if input_high is None else np.array(input_high, dtype=float).ravel()
+        check_finite(input_low=low, input_high=high)
+        if low.shape != (D,) or high.shape != (D,) or not np.all(low < high):
+            raise ValueError(f"input_low/input_high must be ({D},) with low < high: {low}, {high}")
+        self.input_low, self.input_high = low, high
+        self._input_box = InputBox(low, high, "input box")
+        self._joint_box = InputBox(self.lower, self.upper, "joint ranges")
+        # u, θ0, v0, θ1, v1 of a trial side by side, checked at once
+        self._trial_box = InputBox(
+            np.concatenate((low, self.lower, low, self.lower, low)),
+            np.concatenate((high, self.upper, high, self.upper, high)),
+            "trial's input box and joint ranges",
+        )
+        start = (self.lower + self.upper) / 2 if theta_init is None else theta_init
+        start = np.array(start, dtype=float).ravel()
+        check_finite(theta_init=start)
+        if start.shape != (J,):
+            raise ValueError(f"theta_init must have shape ({J},), got {start.shape}")
+        self._grid = Lattice(self.lattice)
+        self.kernel = _kernel(kernel, len(self.lattice))
+        self._shape = np.array((1, 1, *self.lattice)[-3:], dtype=np.int64)  # 3-D, for the kernels
+        self._zeros = np.zeros(self.n_joints)  # no exploration noise, for the kernels
+        self._pruned = self.kernel == "numba" and math.prod(self.lattice) >= PRUNED_SEARCH_MIN
+        blocks = math.prod(-(-n // kernels.BLOCK) for n in self._shape)
+        self._block_centre = np.zeros((blocks, input_dim) if self._pruned else (0, 1))
+        self._block_radius = np.zeros(blocks if self._pruned else 0)
+        self.coords = self._grid.coords  # (N, L) lattice coordinates of each neuron
+        N = self.n_neurons
+        self._w = self.rng.uniform(low, high, size=(N, D))  # (N, D)
+        self._th = np.tile(start, (N, 1))  # (N, J)
+        a_std = self.a_init * np.mean(self.upper - self.lower) / np.mean(high - low)
+        self._A = self.rng.normal(0.0, a_std, size=(N, J, D)) if a_std > 0 else np.zeros((N, J, D))
+        self.t = 0
+        self.skipped = {"not_visible": 0, "small_dv": 0}
+        self.monitor = None if continual is None else ErrorMonitor(continual)
+        self._version = 0  # counts changes of w, for the winner remembered from the coarse act
+        self._init_compiled()
+        self._sync()
+        self.reset()
+
+    def _check_schedules(self) -> None:
+        """Schedules with finite values; learning rates ε, ε' at most 1 (a step past the target)."""
+        for name in ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma"):
+            schedule = getattr(self, name)
+            check_finite(**{name: (schedule.initial, schedule.final)})
+        for name in ("eps", "eps_out"):
+            if max(getattr(self, name).initial, getattr(self, name).final) > 1.0:
+                raise ValueError(f"{name} is a learning rate in [0, 1], got {getattr(self, name)}")
+
+    # ----------------------------------------------------------------------------- state
+    @property
+    def w(self) -> np.ndarray:
+        """(N, D) positions of the neurons in input space (read-only view; assign to set)."""
+        return _read_only(self._w)
+
+    @w.setter
+    def w(self, value: np.ndarray) -> None:
+        w = self._checked("w", value, self._w.shape)
+        self._input_box.check("w", w)
+        self._w = w
+        self._sync()
+
+    @property
+    def theta(self) -> np.ndarray:
+        """(N, J) joint angles of the neurons, rad (read-only view; assign to set)."""
+        return _read_only(self._th)
+
+    @theta.setter
+    def theta(self, value: np.ndarray) -> None:
+        self._th = self._checked("theta", value, self._th.shape)
+
+    @property
+    def A(self) -> np.ndarray:
+        """(N, J, D) local linear maps, rad per input unit (read-only view; assign to set)."""
+        return _read_only(self._A)
+
+    @A.setter
+    def A(self, value: np.ndarray) -> None:
+        self._A = self._checked("A", value, self._A.shape)
+
+    @staticmethod
+    def _checked(name: str, value: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        a = np.array(value, dtype=float)  # a copy: the map owns its arrays
+        if a.shape != shape:
+            raise ValueError(f"{name} must have the map's shape {shape}, got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} contains NaN or inf; the map needs finite values")
+        return a
+
+    # ----------------------------------------------------------------------------- structure
+    @property
+    def n_joints(self) -> int:
+        return self.lower.shape[0]
+
+    @property
+    def n_neurons(self) -> int:
+        return math.prod(self.lattice)
+
+    def _sync(self) -> None:
+        """Derived data: |w_r|² for the winner search, parameters for the current t."""
+        self._w2 = np.einsum("nd,nd->n", self._w, self._w)  # (N,)
+        if self._pruned:  # bounding spheres of the lattice blocks, for the winner search
+            kernels.refresh_blocks(self._w, self._shape, self._block_centre, self._block_radius)
+        self._params_t = -1
+        self._version += 1  # w changed outside learn(): forget the remembered winner
+        self._last_winner: tuple[bytes, int, int] = (b"", -1, -1)
+
+    def params(self) -> tuple[float, float, float, float, float]:
+        """ε, σ, ε', σ' and the exploration std at t = trials learned so far."""
+        t, T = self.t, self.t_max
+        if self.monitor is None and t > T:
+            t = T  # the floors: the same values from t_max on
+        if self._params_t != t:
+            frac = min(t, T) / T if self.monitor is None else self.monitor.fraction(t, T)
+            self._params = tuple(
+                s.at(frac)
+                for s in (self.eps, self.sigma, self.eps_out, self.sigma_out, self.explore)
+            )
+            self._params_t = t
+            self._tables = None  # the compiled path's weight tables of these widths
+        return self._params
+
+    def _winner(self, u: np.ndarray) -> int:
+        """argmin_r |u − w_r|² = argmin_r |w_r|² − 2 w_r·u."""
+        if self._pruned:
+            return kernels.winner_pruned(
+                self._w, self._w2, u, self._shape, self._block_centre, self._block_radius
+            )
+        if self.kernel == "numba":
+            return kernels.winner(self._w, self._w2, u)
+        return int((self._w2 - 2.0 * (self._w @ u)).argmin())
+
+    # ----------------------------------------------------------------------------- acting
+    def reset(self) -> None:
+        """Forget the previous command; the next ``act`` must be a coarse one."""
+        self._u: np.ndarray | None = None  # target of the current moves
+        self._cmd: np.ndarray | None = None  # last command
+        self._abar: np.ndarray | None = None  # (J, D) averaged A for the fine moves
+        self._v: np.ndarray | None = None  # position sensed before the last fine command
+        self._cmd_before: np.ndarray | None = None  # command before the last fine one
+
+    def _vector(self, name: str, x: np.ndarray) -> np.ndarray:
+        """x as a finite (D,) float array in the input box, else ValueError saying what is
+        wrong."""
+        a = np.asarray(x, dtype=float)
+        if not (a.shape == (self.input_dim,) and math.isfinite(a @ a)):
+            check_pixels(name, a, self.input_dim)  # raises for a wrong shape or NaN, naming it
+        self._input_box.check(name, a)
+        return a
+
+    def _check_trial(self, *arrays: np.ndarray) -> None:
+        """ValueError if a finite one of u, θ0, v0, θ1, v1 lies far outside the input box or
+        the joint ranges (NaN and inf are left to the other checks: not seen, or refused)."""
+        if self._trial_box.inside(np.concatenate(arrays)):  # one test for the usual case
+            return
+        names = ("u", "theta0", "v0", "theta1", "v1")
+        boxes = (self._input_box, self._joint_box, self._input_box, self._joint_box)
+        for name, box, a in zip(names, (*boxes, self._input_box), arrays, strict=True):
+            if np.isfinite(a).all():
+                box.check(name, a)
+
+    def _clip(self, theta: np.ndarray) -> np.ndarray:
+        return np.minimum(np.maximum(theta, self.lower), self.upper)
+
+    def _coarse(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unclipped coarse output (J,) and averaged A (J, D) for target u."""
+        if self.kernel == "numba":
+            _, table, r2 = self._kernel_tables()  # σ' and its cut-off, kept until t moves them
+            s = self._winner(u)
+            theta, abar = np.empty(self.n_joints), np.empty((self.n_joints, self.input_dim))
+            kernels.coarse(s, u, self._w, self._th, self._A, table, r2, self._shape, theta, abar)
+            self._last_winner = (u.tobytes(), self._version, s)
+            return theta, abar
+        sigma_out = self.params()[3]
+        r2 = self._grid.cutoff_radius2(sigma_out) if self.averaging == "neighbourhood" else 0
+        s = self._winner(u)
+        self._last_winner = (u.tobytes(), self._version, s)
+        if r2 > 0:
+            box, g = self._grid.neighbours(s, sigma_out)
+            if g.size > 1:
+                K, (_, J, D) = g.size, self._A.shape
+                gn = g.ravel() / g.sum()  # (K,) the box's neurons, C order
+                a_k = self._grid.view(self._A, box).reshape(K, J * D)  # (K, J·D)
+                du = gn[:, None] * (u - self._grid.view(self._w, box).reshape(K, D))  # (K, D)
+                theta = gn @ self._grid.view(self._th, box).reshape(K, J)
+                theta += np.einsum("kjd,kd->j", a_k.reshape(K, J, D), du)
+                return theta, (gn @ a_k).reshape(J, D)
+        a = self._A[s]
+        return self._th[s] + a @ (u - self._w[s]), a.copy()
+
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
+        """Coarse command for target u, or, given v, the next fine command.
+
+        Args:
+            u: target in input space (pixels), (D,).
+            v: effector position sensed after the previous command, (D,); None for the coarse
+                move. Fine moves may follow each other: θ_{k+1} = θ_k + Ā (u − v_k).
+            explore: add N(0, explore(t)²) joint noise to a fine command (training only).
+        Returns:
+            joint command (J,), rad, clipped into [joint_lower, joint_upper].
+        Raises:
+            ValueError: u or v of the wrong shape or not finite, or a fine move without a coarse
+                one since the last ``reset()``; the map and its memory are then unchanged.
+        """
+        if self._compiled:
+            command = self._act_compiled(u, v, explore)
+            if command is not None:
+                return command  # else an input is wrong: the checks below say what
+        if self.protocol == "brause":
+            return self._act_brause(u, v)
+        u = self._vector("u", u)
+        if v is None:
+            theta, self._abar = self._coarse(u)
+            self._u, self._v, self._cmd_before = u.copy(), None, None
+        else:
+            v = self._vector("v", v)
+            if self._cmd is None:
+                raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
+            if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
+                self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
+            if self._v is None and not explore and self.abar == "local-fit":
+                self._abar = self._local_abar(u)
+            if self.refine and self._v is not None:
+                dv = v - self._v
+                dv2 = float(dv @ dv)
+                if dv2 >= self.min_dv * self.min_dv:
+                    dth = self._cmd - self._cmd_before
+                    self._abar = self._abar + np.multiply.outer(dth - self._abar @ dv, dv / dv2)
+            theta = self._cmd + self._abar @ (u - v)
+            if explore and self.params()[4] > 0:
+                theta = theta + self.rng.normal(0.0, self.params()[4], size=self.n_joints)
+            self._v, self._cmd_before = v.copy(), self._cmd
+        self._cmd = self._clip(theta)
+        return self._cmd.copy()
+
+    def _local_abar(self, u: np.ndarray) -> np.ndarray:
+        """Ā (J, D) of the local fit at target u (``learners/som/local_fit.py``)."""
+        memo = self._last_winner
+        same = memo[0] == u.tobytes() and memo[1] == self._version
+        return local_abar(self._grid, memo[2] if same else self._winner(u), u, self._w, self._A)
+
+    def _act_brause(self, u: np.ndarray, v: np.ndarray | None) -> np.ndarray:
+        """Brause §3: coarse Θ_c, fine Θ_c + A_c (u − w_c) (3.7); v is not used (may be NaN)."""
+        u = self._vector("u", u)
+        if v is not None and self._cmd is None:
+            raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
+        s = self._winner(u)
+        self._last_winner = (u.tobytes(), self._version, s)
+        theta = self._th[s] if v is None else self._th[s] + self._A[s] @ (u - self._w[s])
+        self._cmd = self._clip(theta)
+        return self._cmd.copy()
+
+    def act_batch(self, U: np.ndarray) -> np.ndarray:
+        """Coarse commands for many targets: (M, D) -> (M, J), the same as ``act`` row by row.
+
+        Does not touch the fine-move memory. Raises ValueError for a wrong shape or NaN/inf.
+        """
+        U = np.asarray(U, dtype=float)
+        if U.ndim != 2 or U.shape[1] != self.input_dim:
+            raise ValueError(f"U must have shape (M, {self.input_dim}), got {U.shape}")
+        if not np.all(np.isfinite(U)):
+            raise ValueError("U contains NaN or inf; pass sensed pixels of visible targets")
+        self._input_box.check("U", U)
+        out = np.empty((len(U), self.n_joints))
+        for i in range(0, len(U), _BATCH_BLOCK):
+            out[i : i + _BATCH_BLOCK] = self._coarse_batch(U[i : i + _BATCH_BLOCK])
+        return out
+
+    def _coarse_batch(self, U: np.ndarray) -> np.ndarray:
+        M, (N, J, D) = len(U), self._A.shape
+        s = (self._w2[None, :] - 2.0 * (U @ self._w.T)).argmin(1)  # (M,)
+        if self.protocol == "brause":
+            return self._clip(self._th[s])
+        sigma = self.params()[3]
+        r2 = self._grid.cutoff_radius2(sigma)
+        if self.averaging == "winner" or r2 < 1:  # the winner alone
+            return self._clip(self._th[s] + np.einsum("mjd,md->mj", self._A[s], U - self._w[s]))
+        d2 = self._grid.distances2(s)  # (M, N) |r − s_m|²
+        G = self._grid.weights(sigma).take(np.minimum(d2, r2 + 1))  # (M, N)
+        G /= G.sum(1, keepdims=True)
+        offset = self._th - np.einsum("njd,nd->nj", self._A, self._w)  # θ_r − A_r w_r, (N, J)
+        GA = (G @ self._A.reshape(N, J * D)).reshape(M, J, D)  # Ā per target
+        return self._clip(G @ offset + np.einsum("mjd,md->mj", GA, U))
+
+    # ----------------------------------------------------------------------------- learning
+    def learn(
+        self,
+        u: np.ndarray,
+        theta0: np.ndarray,
+        v0: np.ndarray,
+        theta1: np.ndarray,
+        v1: np.ndarray,
+    ) -> bool:
+        """One training trial: target u, coarse command θ0 -> sensed v0, fine θ1 -> sensed v1.
+
+        Returns:
+            True if the map learned; False if the trial was skipped and counted in ``skipped``:
+            "not_visible" when v0 or v1 holds NaN/inf (a marker not seen), "small_dv" when
+            |v1 − v0| < ``min_dv``. Only learned trials advance t.
+        Raises:
+            ValueError: u not finite or not (D,), θ0/θ1 not finite or not (J,), v0/v1 not
+                (D,), or any of them far outside the input box or joint ranges
+                (``learners.guards``); the map is then unchanged.
+        """
+        D, J = self.input_dim, self.n_joints
+        u, v0, v1 = np.asarray(u, dtype=float), np.asarray(v0, dtype=float), np.asarray(v1, float)
+        theta0, theta1 = np.asarray(theta0, dtype=float), np.asarray(theta1, dtype=float)
+        fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
+        shapes_ok = fast_ok and v0.shape == (D,) == v1.shape
+        if shapes_ok and self._compiled:
+            if self.monitor is not None:  # it observes the trial before the kernel checks it
+                self._check_trial(u, theta0, v0, theta1, v1)
+            learned = self._learn_compiled(u, theta0, v0, theta1, v1)
+            if learned is not None:
+                return learned  # else an input is wrong: the checks below say what
+        if shapes_ok:
+            self._check_trial(u, theta0, v0, theta1, v1)
+        if not (fast_ok and math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1)):
+            check_pixels("u", u, D)  # the slow path, which names what is wrong
+            check_pixels("theta0", theta0, J)
+            check_pixels("theta1", theta1, J)
+        for name, v in (("v0", v0), ("v1", v1)):
+            if v.shape != (D,):
+                raise ValueError(f"{name} must have shape ({D},), got {v.shape}")
+        if not math.isfinite(v0 @ v0 + v1 @ v1) and not (
+            np.isfinite(v0).all() and np.isfinite(v1).all()
+        ):
+            self.skipped["not_visible"] += 1
+            return False
+        dv = v1 - v0  # (D,)
+        dv2 = float(dv @ dv)
+        if dv2 < self.min_dv * self.min_dv:
+            self.skipped["small_dv"] += 1
+            return False
+        if self.monitor is not None:
+            e = u - v0  # the coarse error: the fine move hides a shift of the images
+            if self.monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
+                self._params_t = -1  # a re-adaptation starts: the schedules run back
+        eps, sigma, eps_out, sigma_out, _ = self.params()
+        key = u.tobytes()
+        if self._last_winner[0] == key and self._last_winner[1] == self._version:
+            s = self._last_winner[2]  # found by the coarse act for this target
+        else:
+            s = self._winner(u)
+        self._version += 1
+        if self.protocol == "brause":
+            self._learn_brause(s, u, theta0, theta1, v0, v1, dv / dv2)
+            self.t += 1
+            return True
+        a_s = self._A[s]  # (J, D), read before any update
+        if self.rule == "mrs":
+            theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
+        else:
+            theta_star = theta1 + a_s @ (self._w[s] - v1)
+        a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ dv, dv / dv2)  # (J, D)
+        self._update(s, u, theta_star, a_star, eps, sigma, eps_out, sigma_out)
+        self.t += 1
+        return True
+
+    def _update(
+        self,
+        s: int,
+        u: np.ndarray,
+        theta_star: np.ndarray,
+        a_star: np.ndarray,
+        eps: float,
+        sigma: float,
+        eps_out: float,
+        sigma_out: float,
+    ) -> None:
+        """w_r += ε h (u − w_r); θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
+        grid = self._grid
+        box, h = grid.neighbours(s, sigma)  # a box of the lattice, h = 0 at its far corners
+        w_k = grid.view(self._w, box)  # (*b, D) views: the updates write through
+        w_k += (eps * h)[..., None] * (u - w_k)
+        grid.view(self._w2, box)[...] = np.einsum("...d,...d->...", w_k, w_k)
+        box, h = grid.neighbours(s, sigma_out)
+        step = eps_out * h  # (*b,)
+        theta_k, a_k = grid.view(self._th, box), grid.view(self._A, box)  # (*b, J), (*b, J, D)
+        theta_k += step[..., None] * (theta_star - theta_k)
+        theta_k[...] = self._clip(theta_k)
+        a_k += step[..., None, None] * (a_star - a_k)
+
+    def _learn_brause(
+        self,
+        s: int,
+        x: np.ndarray,
+        theta0: np.ndarray,
+        theta1: np.ndarray,
+        x_i: np.ndarray,
+        x_f: np.ndarray,
+        dv_n: np.ndarray,
+    ) -> None:
+        """(3.9), (3.10) in the forms of the commands sent, then one γ and the step
+        neighbourhood (3.2) for w, Θ and A.
+
+        Args:
+            dv_n: (x_F − x_I) / |x_F − x_I|², (D,).
+        """
+        a_c, w_c = self._A[s], self._w[s].copy()  # before any update
+        theta_star = theta1 + a_c @ (w_c - x_f)  # (3.9), (J,)
+        a_star = a_c + np.multiply.outer((theta1 - theta0) - a_c @ (x_f - x_i), dv_n)  # (3.10)
+        gamma = harmonic(self.gamma.initial, self.gamma.final, self.t, self.t_max)
+        k = self._grid.within(s, self.params()[1])  # (K,) neurons with h = 1
+        self._w[k] += gamma * (x - self._w[k])
+        self._w2[k] = np.einsum("kd,kd->k", self._w[k], self._w[k])
+        self._th[k] = self._clip(self._th[k] + gamma * (theta_star - self._th[k]))
+        self._A[k] += gamma * (a_star - self._A[k])
+
+    # ----------------------------------------------------------------------------- persistence
+    _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before")
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write everything needed to continue bit-identically to one ``.npz``, atomically:
+        the arrays, the configuration, t, the skip counters, the generator state and the
+        fine-move memory."""
+        return save_npz(path, KIND, FORMAT_VERSION, *self.state())
+
+    def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """(configuration, arrays) that :meth:`save` writes; a training run's checkpoint adds
+        its own entries beside them (``envs.harness.checkpoint``), and :meth:`load` reads both."""
+        config: dict[str, Any] = {
+            "lattice": list(self.lattice),
+            "input_dim": self.input_dim,
+            "rule": self.rule,
+            "averaging": self.averaging,
+            "refine": self.refine,
+            "abar": self.abar,
+            "t_max": self.t_max,
+            "schedules": {
+                k: [getattr(self, k).initial, getattr(self, k).final]
+                for k in ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma")
+            },
+            "a_init": self.a_init,
+            "min_dv": self.min_dv,
+            "protocol": self.protocol,
+            "t": self.t,
+            "skipped": dict(self.skipped),
+            "rng_state": self.rng.bit_generator.state,
+        }
+        if self.monitor is not None:
+            config["continual"] = asdict(self.monitor.params)
+            config["continual_state"] = self.monitor.state()
+        arrays = {
+            "w": self._w,
+            "theta": self._th,
+            "A": self._A,
+            "joint_lower": self.lower,
+            "joint_upper": self.upper,
+            "input_low": self.input_low,
+            "input_high": self.input_high,
+        }
+        memory = {k: getattr(self, k) for k in self._MEMORY}  # copies: the kernels write in place
+        arrays.update({k: m.copy() for k, m in memory.items() if m is not None})
+        return config, arrays
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> VisuomotorSOM:
+        """Read a map written by :meth:`save`.
+
+        Raises:
+            CheckpointError: missing, damaged or truncated file, another kind of state, another
+                format version, or contents that do not fit together.
+        """
+        config, arrays = load_npz(path, KIND, FORMAT_VERSION)
+        try:
+            _check_config(config)
+            state = config["rng_state"]
+            bit_generator = getattr(np.random, state["bit_generator"])()
+            bit_generator.state = state
+            som = cls(
+                arrays["joint_lower"],
+                arrays["joint_upper"],
+                lattice=tuple(config["lattice"]),
+                input_dim=config["input_dim"],
+                rule=config["rule"],
+                averaging=config["averaging"],
+                refine=config["refine"],
+                abar=config.get("abar", "local-fit"),  # files from before the option: default
+                t_max=config["t_max"],
+                rng=0,
+                input_low=arrays["input_low"],
+                input_high=arrays["input_high"],
+                a_init=config["a_init"],
+                min_dv=config["min_dv"],
+                protocol=config.get("protocol", "mrs"),  # files from before the option: MRS
+                continual=Continual(**config["continual"]) if "continual" in config else None,
+                **{k: tuple(v) for k, v in config["schedules"].items()},
+            )
+            for name in ("w", "theta", "A"):
+                stored, shape = arrays[name], getattr(som, name).shape
+                if stored.shape != shape or stored.dtype != np.float64:
+                    raise CheckpointError(
+                        f"{path}: array {name!r} is {stored.dtype} {stored.shape}, the stored "
+                        f"configuration needs float64 {shape}; the file is damaged or foreign"
+                    )
+                setattr(som, name, stored)  # copies, checks finiteness, refreshes caches
+            if not np.all((som.lower <= som.theta) & (som.theta <= som.upper)):
+                raise ValueError("theta lies outside the stored joint ranges")
+            som.t = config["t"]
+            som.skipped = dict(config["skipped"])
+            if som.monitor is not None:
+                som.monitor = ErrorMonitor(som.monitor.params, config["continual_state"])
+            som.rng = np.random.Generator(bit_generator)
+            J, D = som.n_joints, som.input_dim
+            shapes = {"_u": (D,), "_cmd": (J,), "_abar": (J, D), "_v": (D,), "_cmd_before": (J,)}
+            for k in cls._MEMORY:
+                memory = arrays.get(k)
+                if memory is not None and (memory.shape != shapes[k] or memory.dtype != float):
+                    raise ValueError(f"{k} is {memory.dtype} {memory.shape}, not {shapes[k]}")
+                check_finite(**{k: 0.0 if memory is None else memory})
+                setattr(som, k, None if memory is None else memory.copy())
+            som._sync()
+        except CheckpointError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+            raise CheckpointError(
+                f"{path}: incomplete or inconsistent VisuomotorSOM checkpoint ({exc!r}); "
+                "restore it from a copy or retrain"
+            ) from exc
+        return som
