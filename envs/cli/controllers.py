@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -9,9 +10,34 @@ import numpy as np
 from learners.base import Controller
 from learners.baselines.random_controller import RandomController
 
-SPECS = "random | analytic | jacobian | exact-servo | PATH.npz (a saved VisuomotorSOM)"
+#: The controllers that need no file.
+NAMED = ("random", "analytic", "jacobian", "exact-servo")
+SPECS = f"{' | '.join(NAMED)} | PATH.npz (a saved VisuomotorSOM) | RUN (a train.py run folder)"
+#: The map's file in a run folder (``envs.harness.training.MAP_FILE``; not imported, so that
+#: argument parsing stays fast).
+RUN_MAP_FILE = "som.npz"
 #: The envs these controllers drive (PumaTrack-v0 takes joint increments, not reach commands).
 REACH_ENVS = ("RiacsReach-v0", "PumaReach-v0")
+
+
+def controller_spec(text: str) -> str:
+    """argparse type of ``--controller``: a name of ``NAMED``, an existing ``.npz`` map, or a run
+    folder holding one (given as its map's path); anything else is a one-line usage error."""
+    if text in NAMED:
+        return text
+    path = Path(text)
+    if path.is_dir():
+        if not (path / RUN_MAP_FILE).is_file():
+            raise argparse.ArgumentTypeError(
+                f"{text} is a folder without {RUN_MAP_FILE}; pass a train.py run folder, a .npz "
+                f"map or one of {', '.join(NAMED)}"
+            )
+        return str(path / RUN_MAP_FILE)
+    if path.suffix == ".npz":
+        if not path.is_file():
+            raise argparse.ArgumentTypeError(f"{text} does not exist; train a map with train.py")
+        return text
+    raise argparse.ArgumentTypeError(f"wants {SPECS}, got {text!r}")
 
 
 class Ticking(Controller):

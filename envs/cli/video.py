@@ -11,7 +11,7 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import REACH_ENVS, SPECS, make_controller
+from envs.cli.controllers import REACH_ENVS, SPECS, controller_spec, make_controller
 from envs.harness.trials import Trial, run_trial
 from envs.harness.video import VideoWriter, annotate
 from envs.reach import SENSING_MODES
@@ -23,7 +23,7 @@ FRAMES_PER_MOVE = 3
 def main(argv: list[str] | None = None) -> Path:
     parser = cli.parser(__doc__)
     parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENVS)
-    parser.add_argument("--controller", default="random", help=SPECS)
+    parser.add_argument("--controller", required=True, type=controller_spec, help=SPECS)
     parser.add_argument("--trials", type=cli.positive_int, default=4)
     parser.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
     parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
