@@ -21,9 +21,10 @@ demo: $(VENV)/.installed
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -n 2 --dist loadfile --ignore=tests/test_rl.py  # rl: make test-rl
 
-# The long fault test: ten times the signals of the kill test in `make test`.
+# The long fault tests: ten times the signals of the kill test and the damaged checkpoints of
+# the fuzz test in `make test`.
 soak: $(VENV)/.installed
-	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -rP -n 2 tests/test_kill.py
+	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -rP -n 2 tests/test_kill.py tests/test_checkpoint_fuzz.py
 
 # The rl extra (Stable-Baselines3 and torch's CPU build) and its tests.
 $(VENV)/.installed-rl: $(VENV)/.installed

@@ -4,6 +4,7 @@ version, written atomically (temporary file in the same folder, then rename)."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 import zipfile
@@ -14,6 +15,12 @@ from typing import Any, BinaryIO
 import numpy as np
 
 _KIND, _VERSION, _CONFIG = "__kind__", "__format_version__", "__config__"
+#: Configuration entry that lists the archive's arrays (removed from what ``load_npz`` returns).
+_ARRAYS = "__arrays__"
+#: The first bytes of a .npy file.
+NPY_MAGIC = b"\x93NUMPY"
+#: General-purpose flag bit of an encrypted zip member.
+_ENCRYPTED = 0x1
 #: Mode of written files before the umask, as open() gives (0644 with the usual umask 022).
 FILE_MODE = 0o666
 
@@ -56,10 +63,11 @@ def save_npz(
     arrays: dict[str, np.ndarray],
 ) -> Path:
     """Write ``arrays`` and ``config`` to ``path`` atomically; returns the path."""
+    stored = {**config, _ARRAYS: sorted(arrays)}  # so that a lost directory entry is seen
     payload = {
         _KIND: np.array(kind),
         _VERSION: np.array(version),
-        _CONFIG: np.array(json.dumps(config, sort_keys=True)),
+        _CONFIG: np.array(json.dumps(stored, sort_keys=True)),
         **arrays,
     }
     return write_atomic(path, lambda f: np.savez(f, **payload))
@@ -78,19 +86,13 @@ def load_npz(
     if not path.is_file():
         raise CheckpointError(f"{path}: no such file; check the path or train a model first")
     try:
-        loaded = np.load(path, allow_pickle=False)
-        if not isinstance(loaded, np.lib.npyio.NpzFile):  # a .npy (one array) under this name
-            raise CheckpointError(
-                f"{path}: a single numpy array, not a checkpoint archive; pass the .npz that "
-                "save() wrote"
-            )
-        with loaded as z:
-            contents = {k: z[k] for k in z.files}
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
-        if isinstance(exc, CheckpointError):
-            raise
+        contents = _read_archive(path)
+    except CheckpointError:
+        raise
+    except Exception as exc:  # any other failure to parse these bytes is damage, not a bug
         raise CheckpointError(
-            f"{path}: damaged or truncated ({exc}); restore it from a copy or retrain"
+            f"{path}: damaged or truncated ({type(exc).__name__}: {exc}); restore it from a copy "
+            "or retrain"
         ) from exc
     if _KIND not in contents or _VERSION not in contents or _CONFIG not in contents:
         raise CheckpointError(f"{path}: not a visuomotor checkpoint (no kind/version/config)")
@@ -108,4 +110,55 @@ def load_npz(
         )
     if not isinstance(config, dict):
         raise CheckpointError(f"{path}: the configuration is {type(config).__name__}, not a dict")
+    names = config.pop(_ARRAYS, None)  # None: a file from before the list was written
+    if names is not None and names != sorted(contents):
+        raise CheckpointError(
+            f"{path}: holds arrays {sorted(contents)}, its configuration lists {names}; the file "
+            "is damaged"
+        )
     return config, contents
+
+
+def _read_archive(path: Path) -> dict[str, np.ndarray]:
+    """The arrays of an archive that :func:`save_npz` wrote, read strictly: every member stored
+    uncompressed and unencrypted (as ``np.savez`` writes them), a ``.npy`` header whose shape and
+    dtype account for exactly the member's bytes (so a damaged header cannot ask for a huge
+    allocation), no Python objects, and the member's CRC checked."""
+    if not zipfile.is_zipfile(path):
+        with open(path, "rb") as f:
+            if f.read(len(NPY_MAGIC)) == NPY_MAGIC:  # a .npy (one array) under this name
+                raise CheckpointError(
+                    f"{path}: a single numpy array, not a checkpoint archive; pass the .npz that "
+                    "save() wrote"
+                )
+        raise CheckpointError(
+            f"{path}: damaged or truncated (no zip directory); restore it from a copy or retrain"
+        )
+    contents = {}
+    with zipfile.ZipFile(path) as archive:
+        for info in archive.infolist():
+            name = info.filename.removesuffix(".npy")
+            if info.compress_type != zipfile.ZIP_STORED or info.flag_bits & _ENCRYPTED:
+                raise CheckpointError(
+                    f"{path}: member {info.filename!r} is compressed or encrypted, which save() "
+                    "never writes; the file is damaged or foreign"
+                )
+            if name == info.filename or name in contents:
+                raise CheckpointError(f"{path}: unexpected member {info.filename!r}")
+            with archive.open(info) as member:
+                version = np.lib.format.read_magic(member)
+                if version == (1, 0):
+                    shape, fortran, dtype = np.lib.format.read_array_header_1_0(member)
+                else:
+                    shape, fortran, dtype = np.lib.format.read_array_header_2_0(member)
+                size = math.prod(shape) * dtype.itemsize
+                if dtype.hasobject or member.tell() + size != info.file_size:
+                    raise CheckpointError(
+                        f"{path}: array {name!r} ({dtype} {shape}) does not match its "
+                        f"{info.file_size} stored bytes; the file is damaged"
+                    )
+                data = member.read(size)
+                member.read()  # to the end: zipfile checks the CRC there
+            order = "F" if fortran else "C"
+            contents[name] = np.frombuffer(data, dtype=dtype).reshape(shape, order=order).copy()
+    return contents
