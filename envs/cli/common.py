@@ -8,7 +8,7 @@ import math
 import os
 import sys
 from collections.abc import Callable, Iterable, Sequence
-from typing import TypeVar
+from typing import NoReturn, TypeVar
 
 from tqdm import tqdm
 
@@ -17,21 +17,41 @@ T = TypeVar("T")
 USAGE_ERROR = 2
 
 
-class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Defaults in the help, the description printed as written."""
+def _help_with_default(action: argparse.Action) -> str:
+    """An option's help with its default appended (sizes and lattices as ``WxH``, ``12x7x4``),
+    unless the help already speaks of its default or the option is required or a flag."""
+    text, default = action.help or "", action.default
+    if (
+        "default" in text
+        or action.required
+        or default is argparse.SUPPRESS
+        or isinstance(default, bool)
+        or not action.option_strings
+    ):
+        return text
+    if default is None or default == []:
+        return f"{text} (no default)".strip()
+    shown = "x".join(map(str, default)) if isinstance(default, tuple) else str(default)
+    return f"{text} (default: {shown.replace('%', '%%')})".strip()
 
 
 class _Parser(argparse.ArgumentParser):
-    """Every option gets a help entry, so that its default is shown."""
+    """Help for every option (its default at least), the description printed as written, and a
+    command-line mistake as one line."""
 
     def add_argument(self, *args, **kwargs):  # type: ignore[override]
-        kwargs.setdefault("help", "(default: %(default)s)")  # argparse skips empty help
-        return super().add_argument(*args, **kwargs)
+        action = super().add_argument(*args, **kwargs)
+        if action.help is not argparse.SUPPRESS:
+            action.help = _help_with_default(action)
+        return action
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(USAGE_ERROR, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def parser(doc: str | None) -> argparse.ArgumentParser:
     """An ArgumentParser whose help shows ``doc`` (the script's docstring) and the defaults."""
-    return _Parser(description=doc, formatter_class=_Formatter)
+    return _Parser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
 
 
 def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
