@@ -43,7 +43,7 @@ def test_every_script_explains_itself_with_defaults_and_its_whole_description(na
     options = re.findall(r"^  --(?!help)[\w-]+.*(?:\n {6,}\S.*)*", result.stdout, re.M)
     for option in options:
         flag = re.match(r"  --[\w-]+(?![\w-])(?! [A-Z{\[])", option)  # no value: nothing to default
-        assert "default" in option or "--help" in option or flag, option
+        assert "default" in option or "required" in option or "--help" in option or flag
     assert "(default: None)" not in result.stdout and "(default: (" not in result.stdout
     for command in re.findall(r"^\s*(\S*python\S*) scripts/", doc, re.M):
         assert command == ".venv/bin/python"  # runs as written, without an activated venv

@@ -21,9 +21,10 @@ def _help_with_default(action: argparse.Action) -> str:
     """An option's help with its default appended (sizes and lattices as ``WxH``, ``12x7x4``),
     unless the help already speaks of its default or the option is required or a flag."""
     text, default = action.help or "", action.default
+    if action.required:
+        return f"{text} (required)".strip()
     if (
         "default" in text
-        or action.required
         or default is argparse.SUPPRESS
         or isinstance(default, bool)
         or not action.option_strings
