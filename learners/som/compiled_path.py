@@ -81,7 +81,7 @@ class CompiledPath:
         if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
             self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
         if self._v is None and not explore and self.abar == "local-fit":
-            self._abar = self._local_abar(u)  # once per target, numpy (a few dozen µs)
+            self._abar = self._local_abar(u)  # once per target, numpy
         std = self.params()[4]
         noise = self.rng.normal(0.0, std, size=self.n_joints) if explore and std > 0 else None
         refine = self.refine and self._v is not None
