@@ -48,7 +48,6 @@ DEFAULT_MIN_DV = 1e-3
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
 
-ScheduleLike = Schedule | tuple[float, float] | float
 _CHOICES = {"rule": RULES, "averaging": AVERAGING, "abar": ABAR, "protocol": PROTOCOLS}
 #: Entries a checkpoint written before the option existed lacks: read as these values.
 _ADDED_LATER = {"abar": "local-fit", "protocol": "mrs"}
