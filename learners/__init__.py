@@ -1,6 +1,6 @@
 """Controllers that map camera coordinates to joint commands (numpy only, no MuJoCo)."""
 
-from learners.base import Controller
+from learners.base import Controller, Learner, PathFollower
 from learners.baselines.analytic_ik import AnalyticIK
 from learners.baselines.jacobian_ik import JacobianIK
 from learners.baselines.random_controller import RandomController
@@ -13,7 +13,9 @@ __all__ = [
     "CheckpointError",
     "Controller",
     "JacobianIK",
+    "Learner",
     "NATEnet",
+    "PathFollower",
     "PathTracker",
     "RandomController",
     "VisuomotorSOM",

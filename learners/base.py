@@ -1,8 +1,9 @@
-"""The controller interface shared by learners, exact baselines and the evaluation scripts.
+"""The learner interface shared by learners, exact baselines and the evaluation scripts.
 
 A trial: the cameras see the target at pixels u (4 numbers: u_left, v_left, u_right, v_right).
 ``act(u)`` gives the coarse joint command; after the move the effector is sensed at v, and
-``act(u, v)`` gives the next (fine) command, as often as wanted. Learners never import mujoco.
+``act(u, v)`` gives the next (fine) command, as often as wanted. A :class:`Learner` then learns
+from the trial (u, θ0, v0, θ1, v1). Learners never import mujoco.
 """
 
 from __future__ import annotations
@@ -11,14 +12,32 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+#: The trial protocols a controller may follow (``Controller.protocol``): the loop of Ritter,
+#: Martinetz & Schulten, where a fine move corrects from what was sensed and a trial stops when
+#: a marker is not seen, or Brause's (§3), whose fine move does not use what was sensed.
+PROTOCOLS = ("mrs", "brause")
+
 
 class Controller(ABC):
-    """Camera coordinates in, absolute joint commands (radians) out."""
+    """Camera coordinates in, absolute joint commands (radians) out.
+
+    The trial loop (``envs.harness.trials.run_trial``) relies on ``act``, ``reset`` and
+    ``protocol``; ``act_batch`` has a row-by-row default.
+    """
+
+    @property
+    def protocol(self) -> str:
+        """The trial protocol the controller follows, one of ``PROTOCOLS``: "mrs" unless a
+        controller says otherwise."""
+        return "mrs"
 
     @abstractmethod
-    def act(self, u: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
         """Coarse command for target pixels ``u`` (4,), or, given the effector pixels ``v`` (4,)
-        sensed after the previous command, the corrected command. Returns joints (J,)."""
+        sensed after the previous command, the corrected command. Returns joints (J,), rad.
+
+        ``explore=True`` asks for an exploratory fine move (training); a controller that does
+        not explore ignores it."""
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (N, 4) -> (N, J)."""
@@ -26,6 +45,34 @@ class Controller(ABC):
 
     def reset(self) -> None:  # noqa: B027 - optional hook, most controllers are stateless
         """Forget the previous command (start of a new trial)."""
+
+
+class Learner(Controller):
+    """A controller that learns from its own trials."""
+
+    @abstractmethod
+    def learn(
+        self,
+        u: np.ndarray,
+        theta0: np.ndarray,
+        v0: np.ndarray,
+        theta1: np.ndarray,
+        v1: np.ndarray,
+    ) -> bool:
+        """One trial: target u, coarse command θ0 -> sensed v0, fine command θ1 -> sensed v1.
+        Returns True if it learned, False if the trial was skipped (e.g. a marker not seen)."""
+
+
+class PathFollower(ABC):
+    """Joint increments that follow a path of poses (``PumaTrack-v0``), one control step at a
+    time: not a reach controller (no target pixels, no coarse and fine moves)."""
+
+    @abstractmethod
+    def command(
+        self, theta: np.ndarray, next_error: np.ndarray, twist: np.ndarray, dt: float
+    ) -> np.ndarray:
+        """Joint increment Δθ (J,), rad, from the joints θ (J,), the pose error against the
+        next path pose, the desired twist and the control period dt (s)."""
 
 
 def check_pixels(name: str, x: np.ndarray, width: int = 4) -> np.ndarray:

@@ -49,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from learners.base import PathFollower
 from learners.guards import check_finite, positive_int
 from learners.persistence import CheckpointError, load_npz, save_npz
 
@@ -354,7 +355,7 @@ def grid_counts(lower: np.ndarray, upper: np.ndarray, n_nodes: int) -> np.ndarra
 GAIN = 1.0
 
 
-class PathTracker:
+class PathTracker(PathFollower):
     """Differential IK tracking: θ̇ = M(θ)·(ẋ_d + K·(x_d - x)), one control step at a time.
 
     The pose error stacks the position error (m) and the orientation error as a rotation vector

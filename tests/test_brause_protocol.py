@@ -136,7 +136,7 @@ def test_brause_trials_go_on_when_a_marker_is_not_seen_mrs_trials_stop():
     assert not som.learn(trial.target_px, trial.commands[0], trial.sensed_px[0],
                          trial.commands[1], trial.sensed_px[1])  # fmt: skip
     assert som.skipped["not_visible"] == 1
-    som.protocol = "mrs"
+    som = som.with_config(protocol="mrs")
     assert len(run_trial(_BlindEnv(), som, fine_moves=2).commands) == 1
 
 

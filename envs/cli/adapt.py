@@ -35,7 +35,8 @@ from envs.studies.adaptation import (
 )
 from envs.studies.adaptation_media import curves_figure, phases_video
 from learners.persistence import write_atomic
-from learners.som.controller import ABAR, VisuomotorSOM
+from learners.som.config import ABAR
+from learners.som.controller import VisuomotorSOM
 
 
 def _write_json(path: Path, data: object) -> None:
@@ -95,9 +96,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
             som, pre = pretrain(base, progress)
         else:
             som = VisuomotorSOM.load(args.pretrained / env_id / "pretrained.npz")
-            som.abar = args.abar
+            som = som.with_config(abar=args.abar)
             print(f"{env_id}: {som.t} trials learned; warm-up in {args.sensing}, {args.control}")
-            pre = warm_up(base, som, args.warmup, progress)
+            som, pre = warm_up(base, som, args.warmup, progress)
         som.save(folder / "pretrained.npz")
         _write_json(folder / "pretraining.json", pre)
         results = []

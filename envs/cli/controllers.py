@@ -46,8 +46,12 @@ class Ticking(Controller):
     def __init__(self, inner: Controller, ticks) -> None:
         self.inner, self._ticks = inner, iter(ticks)
 
-    def act(self, u, v=None):
-        return self.inner.act(u, v)
+    @property
+    def protocol(self) -> str:
+        return self.inner.protocol
+
+    def act(self, u, v=None, explore=False):
+        return self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
 
     def reset(self) -> None:
         next(self._ticks, None)

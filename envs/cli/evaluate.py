@@ -11,6 +11,7 @@ positions in 3-D, error map over the workspace. Numbers go to OUT/evaluation.jso
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
@@ -25,7 +26,8 @@ from envs.harness.evaluation import evaluate
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
 from envs.reach import SENSING_MODES
 from envs.sensing.rendering import render_camera
-from learners.som.controller import ABAR, VisuomotorSOM
+from learners.som.config import ABAR, PROTOCOLS
+from learners.som.controller import VisuomotorSOM
 
 #: Held-out targets come from this seed unless told otherwise (never a training seed offset).
 DEFAULT_SEED = 20_000
@@ -48,7 +50,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--no-plots", action="store_true")
     p.add_argument(
         "--protocol",
-        choices=("mrs", "brause"),
+        choices=PROTOCOLS,
         help="how a SOM moves (default: the protocol it was trained with)",
     )
     p.add_argument(
@@ -80,9 +82,7 @@ def main(argv: list[str] | None = None) -> dict:
     for spec in specs:
         controller = make_controller(spec, env, args.seed)
         if isinstance(controller, VisuomotorSOM):
-            controller.protocol = args.protocol or controller.protocol
-            controller.refine = controller.refine and not args.no_refine
-            controller.abar = args.abar or ("average" if args.no_refine else controller.abar)
+            controller = controller.with_config(**som_changes(args))
         env.reset(seed=args.seed)  # the same held-out targets for every controller
         ticking = Ticking(controller, cli.progress(range(args.targets), spec, "target"))
         result = evaluate(env, ticking, args.targets, args.fine_moves)
@@ -109,6 +109,19 @@ def main(argv: list[str] | None = None) -> dict:
         print(f"plots in {out}")
     env.close()
     return summary
+
+
+def som_changes(args: argparse.Namespace) -> dict[str, object]:
+    """The map options ``--protocol``, ``--no-refine`` and ``--abar`` change on a loaded map."""
+    changes: dict[str, object] = {}
+    if args.protocol is not None:
+        changes["protocol"] = args.protocol
+    if args.no_refine:
+        changes["refine"] = False
+    abar = args.abar or ("average" if args.no_refine else None)
+    if abar is not None:
+        changes["abar"] = abar
+    return changes
 
 
 def format_table(rows: list[dict]) -> str:

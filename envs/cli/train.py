@@ -27,6 +27,7 @@ from envs.cli import common as cli
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
 from envs.reach import SENSING_MODES
+from learners.som.config import PROTOCOLS, RULES
 
 
 def parse_lattice(text: str) -> tuple[int, ...]:
@@ -76,11 +77,11 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--trials", type=cli.positive_int, default=d.trials)
     p.add_argument("--seed", type=cli.nonnegative_int, default=d.seed)
     p.add_argument("--lattice", type=parse_lattice, default=d.lattice, help="e.g. 12,7,4")
-    p.add_argument("--rule", default=d.rule, choices=("mrs", "brause"))
+    p.add_argument("--rule", default=d.rule, choices=RULES)
     p.add_argument(
         "--protocol",
         default=d.protocol,
-        choices=("mrs", "brause"),
+        choices=PROTOCOLS,
         help="mrs: MRS loop with this project's additions; brause: Brause's own (coarse Θ_c, "
         "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
     )

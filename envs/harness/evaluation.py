@@ -76,11 +76,14 @@ class _TimedController(Controller):
 
     def __init__(self, inner: Controller) -> None:
         self.inner, self.seconds, self.calls = inner, 0.0, 0
-        self.protocol = getattr(inner, "protocol", "mrs")  # for run_trial
 
-    def act(self, u, v=None):
+    @property
+    def protocol(self) -> str:
+        return self.inner.protocol
+
+    def act(self, u, v=None, explore=False):
         start = time.perf_counter()
-        out = self.inner.act(u, v)
+        out = self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
         self.seconds += time.perf_counter() - start
         self.calls += 1
         return out

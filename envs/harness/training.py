@@ -30,6 +30,7 @@ from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
 from learners.persistence import CheckpointError
+from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
 
 #: The checkpoint unit is also the run's map file (``VisuomotorSOM.load`` reads it).
@@ -45,6 +46,10 @@ INIT_TARGETS = 200
 INIT_SEED_OFFSET = 30_000
 #: Weight of the newest trial in the running errors shown on the progress bar.
 RUNNING_WEIGHT = 0.02
+#: The RunConfig fields that are options of the map (``SOMConfig``, whose defaults they take);
+#: the map's ``t_max`` is the run's ``trials``.
+MAP_OPTIONS = ("lattice", "rule", "protocol", "refine", "abar")
+_MAP = SOMConfig()
 
 
 @dataclass(frozen=True)
@@ -56,20 +61,24 @@ class RunConfig:
     control: str = "kinematic"
     seed: int = 0
     trials: int = 10_000
-    lattice: tuple[int, ...] = (12, 7, 4)
-    rule: str = "mrs"
-    protocol: str = "mrs"  # or "brause": Brause's coarse move, fine move (3.7), learning
+    lattice: tuple[int, ...] = _MAP.lattice
+    rule: str = _MAP.rule
+    protocol: str = _MAP.protocol  # or "brause": Brause's coarse move, fine (3.7), learning
     keep_arm: bool = False
     eval_every: int = 1000
     eval_trials: int = 200
     fine_moves: int = 2
-    refine: bool = True
-    abar: str = "local-fit"  # Ā of the test-time fine moves (training moves use the average)
+    refine: bool = _MAP.refine
+    abar: str = _MAP.abar  # Ā of the test-time fine moves (training moves use the average)
     image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH)  # sensing images, px
 
     def __post_init__(self) -> None:  # tuples also when read back from JSON lists
         object.__setattr__(self, "lattice", tuple(int(n) for n in self.lattice))
         object.__setattr__(self, "image_size", tuple(int(n) for n in self.image_size))
+
+    def map_config(self) -> SOMConfig:
+        """The options of the run's map (ValueError naming a bad one)."""
+        return SOMConfig.of(**{k: getattr(self, k) for k in MAP_OPTIONS}, t_max=self.trials)
 
     def make_env(self, seed_offset: int = 0) -> gym.Env:
         env = gym.make(
@@ -79,14 +88,15 @@ class RunConfig:
         return env
 
 
-def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
+def initial_map(config: RunConfig, env: gym.Env, **options: Any) -> VisuomotorSOM:
     """A fresh map for ``env`` from what a robot knows before it learns: w spread over the box
     of the first INIT_TARGETS targets its cameras see, every θ_r at the taught pose (the MJCF
     keyframe ``ready``), within the joint ranges. Neither the kinematics, an IK nor the camera
     model is used.
 
     The targets are drawn with a generator of seed + INIT_SEED_OFFSET, and the env's own
-    generator is restored afterwards, so the training targets do not change.
+    generator is restored afterwards, so the training targets do not change. ``options`` are
+    map options beyond the run's (``SOMConfig`` fields, e.g. ``continual``).
     """
     base = env.unwrapped
     saved = base.np_random
@@ -109,12 +119,7 @@ def initial_map(config: RunConfig, env: gym.Env) -> VisuomotorSOM:
     return VisuomotorSOM(
         base.joint_lower,
         base.joint_upper,
-        lattice=config.lattice,
-        rule=config.rule,
-        protocol=config.protocol,
-        refine=config.refine,
-        abar=config.abar,
-        t_max=config.trials,
+        SOMConfig.of(config.map_config(), **options),
         rng=np.random.default_rng(config.seed),
         input_low=seen.min(axis=0),
         input_high=seen.max(axis=0),

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from learners.base import Controller
+from learners.base import PROTOCOLS, Controller, Learner
 
 
 @dataclass
@@ -61,15 +61,15 @@ def run_trial(
             (for videos).
         explore: ask a learner for exploratory fine moves (training only; see
             ``VisuomotorSOM.act``).
-        protocol: "mrs" or "brause"; None: the controller's ``protocol`` attribute, else "mrs".
+        protocol: "mrs" or "brause"; None: the controller's ``protocol``.
     Returns:
         the :class:`Trial`. If a marker is not visible, sensed pixels are NaN; under "mrs" the
         trial stops there (a controller cannot correct from a position it did not see), under
         "brause" it goes on (the fine command (3.7) does not depend on what was sensed).
     """
-    protocol = getattr(controller, "protocol", "mrs") if protocol is None else protocol
-    if protocol not in ("mrs", "brause"):
-        raise ValueError(f"unknown protocol {protocol!r}; valid: mrs, brause")
+    protocol = controller.protocol if protocol is None else protocol
+    if protocol not in PROTOCOLS:
+        raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
     _, info = env.reset(options={"keep_arm": keep_arm})
     base = env.unwrapped
     trial = Trial(
@@ -105,7 +105,7 @@ def run_trial(
     return trial
 
 
-def learn_from(controller, trial: Trial) -> bool:
+def learn_from(controller: Learner, trial: Trial) -> bool:
     """Give a learner the first two moves of a trial; False if the trial was not usable."""
     if len(trial.commands) < 2:
         return False

@@ -25,7 +25,7 @@ from envs.studies.recalibrated_oracle import RecalibratedIK
 from learners.baselines.analytic_ik import AnalyticIK
 from learners.baselines.jacobian_ik import JacobianIK
 from learners.som.controller import VisuomotorSOM
-from learners.som.schedules import Continual, ErrorMonitor
+from learners.som.schedules import Continual
 
 #: The named changes of the issue: camera moved 5 cm and turned 3°, focal length +5 %, tool 5 cm
 #: longer, base moved 5 cm; "none" for the no-change control.
@@ -69,8 +69,7 @@ def pretrain(
     run = config.run
     env, eval_env = run.make_env(), run.make_env(EVAL_SEED_OFFSET)
     try:
-        som = initial_map(run, env)
-        som.monitor = ErrorMonitor(Continual())
+        som = initial_map(run, env, continual=Continual())
         curve = [{"trial": 0, **held_out(eval_env, som, config)}]
         while curve[-1]["trial"] < run.trials:
             n = min(run.eval_every, run.trials - curve[-1]["trial"])
@@ -86,14 +85,15 @@ def pretrain(
 
 def warm_up(
     config: AdaptConfig, som: VisuomotorSOM, trials: int, progress: Progress | None = None
-) -> list[dict[str, Any]]:
+) -> tuple[VisuomotorSOM, list[dict[str, Any]]]:
     """Carry a map trained elsewhere (e.g. in the idealised setting) into ``config``'s setting:
-    restart its error monitor and train it ``trials`` trials on the nominal scene, so that the
-    continual mode's reference is this setting's error. Returns the held-out curve at the start
-    and the end (rows ``{"trial", **summary}``, trials counted from the map's first)."""
+    a copy with a restarted error monitor, trained ``trials`` trials on the nominal scene, so
+    that the continual mode's reference is this setting's error. Returns that map and the
+    held-out curve at the start and the end (rows ``{"trial", **summary}``, trials counted from
+    the map's first); ``som`` is not changed."""
     env, eval_env = config.run.make_env(), config.run.make_env(EVAL_SEED_OFFSET)
     try:
-        som.monitor = ErrorMonitor(Continual())
+        som = som.with_config(continual=Continual())
         seen = som.t + sum(som.skipped.values())
         curve = [{"trial": seen, **held_out(eval_env, som, config)}]
         train(env, som, trials)
@@ -103,7 +103,7 @@ def warm_up(
     finally:
         env.close()
         eval_env.close()
-    return curve
+    return som, curve
 
 
 def held_out(env, controller, config: AdaptConfig) -> dict[str, Any]:
@@ -147,8 +147,10 @@ def adapt(
         change = config.extra or CHANGES[config.change]
         applied = base.perturb(change)
         env.unwrapped.perturb(change)
-        learning = {MAP_STANDARD: copy.deepcopy(som), MAP_CONTINUAL: copy.deepcopy(som)}
-        learning[MAP_STANDARD].monitor = None
+        learning = {
+            MAP_STANDARD: som.with_config(continual=None),
+            MAP_CONTINUAL: copy.deepcopy(som),
+        }
         frozen = copy.deepcopy(som)
         static = {"map frozen": frozen, **stale, "AnalyticIK recalibrated": RecalibratedIK(base)}
         after = {name: held_out(eval_env, c, config) for name, c in static.items()}

@@ -57,7 +57,7 @@ class RecalibratedIK(Controller):
             theta = np.clip(theta + step, self.env.joint_lower, self.env.joint_upper)
         return theta
 
-    def act(self, u: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
         """Joint command (J,) for target pixels u (4,); ``v`` is not needed (exact model)."""
         u = check_pixels("u", u)
         return self.solve(self.env.stereo.triangulate(u[None, :])[0])

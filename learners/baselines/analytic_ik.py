@@ -57,7 +57,7 @@ class AnalyticIK(Controller):
         """Joints for world points (N, 3): (joints (N, J) finite and in range, reachable (N,))."""
         return self.arm.inverse(np.atleast_2d(points), None)
 
-    def act(self, u: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
         """Joint command (J,) for target pixels u (4,); ``v`` is checked but not needed."""
         u = check_pixels("u", u)
         if v is not None:

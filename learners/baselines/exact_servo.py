@@ -56,7 +56,7 @@ class ExactServo(Controller):
         d_project = ((pixels[:3] - pixels[3:]) / (2 * PROJECT_STEP)).T  # (4, 3)
         return d_project @ arm.jacobian(theta[None])[0]
 
-    def act(self, u: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
         """Exact IK for u (4,); given v (4,), the servo step from the previous command."""
         u = check_pixels("u", u)
         if v is None:

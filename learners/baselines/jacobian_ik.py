@@ -113,7 +113,7 @@ class JacobianIK(Controller):
             active[idx] = np.linalg.norm(error[idx], axis=-1) >= self.tolerance
         return theta, ~active, iterations
 
-    def act(self, u: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
         """Joint command (J,) for target pixels u (4,), iterated from the previous command."""
         u = check_pixels("u", u)
         if v is not None:

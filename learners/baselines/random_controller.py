@@ -26,7 +26,7 @@ class RandomController(Controller):
         self.fine_step = fine_step
         self._previous: np.ndarray | None = None
 
-    def act(self, u: np.ndarray, v: np.ndarray | None = None) -> np.ndarray:
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
         check_pixels("u", u)
         if v is None or self._previous is None:
             command = self.rng.uniform(self.lower, self.upper)

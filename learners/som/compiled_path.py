@@ -12,7 +12,7 @@ refuses an input it has changed nothing, and the method returns None: the map's 
 message as without numba. The exploration noise is drawn after the inputs are checked, so a
 refused call leaves the generator as it was.
 
-Used for ``kernel="numba"`` under protocol "mrs" (``VisuomotorSOM._compiled``);
+Used for ``kernel="numba"`` under protocol "mrs" (``learners.som.protocols.CompiledMRS``);
 ``tests/test_kernels.py`` checks it against the numpy reference over 1,000 trials.
 """
 
@@ -24,6 +24,7 @@ import numpy as np
 
 from learners.som import kernels
 
+#: Lattices of at least this many neurons search the winner block by block (bounding spheres of
 #: 4³-neuron blocks); below it a plain scan is as fast.
 PRUNED_SEARCH_MIN = 4096
 #: ... whose block bounds are recomputed every this many learned trials (in between, a moved
@@ -38,7 +39,6 @@ class CompiledPath:
     def _init_compiled(self) -> None:
         """Constant kernel arguments and the arrays the fine-move memory is written into."""
         D, J = self.input_dim, self.n_joints
-        self._compiled = self.kernel == "numba" and self.protocol == "mrs"
         box, joints = self._input_box, self._joint_box
         self._box = np.stack((box.centre, box.inv_half))  # (2, D)
         self._joints = np.stack((self.lower, self.upper, joints.centre, joints.inv_half))  # (4, J)
@@ -81,7 +81,7 @@ class CompiledPath:
         if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
             self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
         if self._v is None and not explore and self.abar == "local-fit":
-            self._abar = self._local_abar(u)  # once per target, numpy (a few dozen µs)
+            self._abar = self._local_abar(u)  # once per target, numpy
         std = self.params()[4]
         noise = self.rng.normal(0.0, std, size=self.n_joints) if explore and std > 0 else None
         refine = self.refine and self._v is not None

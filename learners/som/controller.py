@@ -28,7 +28,7 @@ Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δv =
     rule "brause": θ* = θ1 + A_s (w_s − v1)   error sensed after the fine move (Brause 3.9)
 All targets are computed from the map before the trial's updates. θ_r are then clipped into the
 joint ranges (not in the papers: when the coarse command is clipped, θ* = θ_s + A_s(u − v0)
-pushes a θ_r that lies beyond a limit further out with every trial, seen on RIACS and PUMA).
+pushes a θ_r that lies beyond a limit further out with every trial).
 
 Brause states (3.9)/(3.10) for his own protocol: coarse move Θ_c, fine move Θ_c + A_c(x − w_c)
 (3.7), x = u, x_I = v0, x_F = v1. For that protocol the "brause" θ* is literally (3.9),
@@ -58,82 +58,73 @@ Protocols. ``protocol="mrs"`` is everything above. ``protocol="brause"`` is Brau
     they are computed in the equivalent forms of the commands actually sent, Θ* = θ1 + A_c(w_c −
     x_F) and A* = A_c + (Δθ − A_c Δv) Δv^T/|Δv|² (the "brause" rule below), which equal the
     printed ones unless a command was clipped at a joint limit (then the printed forms teach A_c
-    a move the arm did not make: 8 % (RIACS) and 15 % (PUMA) of 4 000 projected training
-    trials with the printed forms).
+    a move the arm did not make).
     Kept from this project: commands and Θ_k clipped into the joint ranges, trials with
     |Δv| < ``min_dv`` skipped (the division in 3.10). ``rule``, ``averaging``, ``refine``,
     ``eps``, ``eps_out``, ``sigma_out`` and ``explore`` have no effect under this protocol.
-    Known weakness (measured on the PUMA, /work/notes/brause-diag.md): with Δθ = A_c(x − w_c),
-    (3.10) is A* = A_c(I + (e − Δv)Δv^T/|Δv|²), e = x − w_c, so A* maps into the range of A_c
-    and only the directions its own moves excite are corrected (median cond A_r 4 -> 26). While
-    A_r is still the random start, γ ≈ 1 with h = 1 over radius 2 copies the Newton estimate
-    (3.9) over whole patches, which can land in another arm configuration (seed 0: 36 neurons
-    by trial 100), where (3.9) then converges. Joint noise on the fine move (not in the paper)
-    keeps A_r conditioned; a smaller γ_i (open in the paper) avoided the flips but costs RIACS;
-    the defaults stay as above.
+    Known weakness: with Δθ = A_c(x − w_c), (3.10) is A* = A_c(I + (e − Δv)Δv^T/|Δv|²),
+    e = x − w_c, so A* maps into the range of A_c and only the directions its own moves excite
+    are corrected (``tests/test_brause_protocol.py``).
 
 Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range of Ā, so the
 Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine
 moves made with ``act(u, v, explore=True)`` (training) add N(0, explore(t)²) joint noise.
+
+Options are one :class:`~learners.som.config.SOMConfig`. The protocol is a strategy of
+``learners/som/protocols.py`` chosen once when the map is built; :meth:`VisuomotorSOM.with_config`
+builds a map with other options and the same learned state.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 import os
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from learners.base import Controller, check_pixels
+from learners.base import Learner, check_pixels
 from learners.guards import InputBox, check_finite
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.som import kernels
 from learners.som.compiled_path import PRUNED_SEARCH_MIN, CompiledPath
+from learners.som.config import (
+    ABAR,
+    AVERAGING,
+    DEFAULT_A_INIT,
+    DEFAULT_EPS,
+    DEFAULT_EPS_OUT,
+    DEFAULT_EXPLORE,
+    DEFAULT_GAMMA,
+    DEFAULT_MIN_DV,
+    DEFAULT_SIGMA,
+    DEFAULT_SIGMA_OUT,
+    DEFAULT_T_MAX,
+    PROTOCOLS,
+    RULES,
+    SHAPE_OPTIONS,
+    SOMConfig,
+)
 from learners.som.lattice import Lattice
 from learners.som.local_fit import local_abar
-from learners.som.schedules import Continual, ErrorMonitor, Schedule, harmonic
+from learners.som.protocols import choose
+from learners.som.schedules import ErrorMonitor
 
-RULES = ("mrs", "brause")
-#: Trial protocols (see the module docstring): MRS with this project's additions, or Brause §3.
-PROTOCOLS = ("mrs", "brause")
-AVERAGING = ("neighbourhood", "winner")
-#: Ā of the fine moves: MRS's σ'-average of the A_r, or this project's local fit at u.
-ABAR = ("average", "local-fit")
+__all__ = [
+    "ABAR", "AVERAGING", "DEFAULT_A_INIT", "DEFAULT_EPS", "DEFAULT_EPS_OUT", "DEFAULT_EXPLORE",
+    "DEFAULT_GAMMA", "DEFAULT_MIN_DV", "DEFAULT_SIGMA", "DEFAULT_SIGMA_OUT", "DEFAULT_T_MAX",
+    "FORMAT_VERSION", "KERNELS", "KIND", "PROTOCOLS", "RULES", "SOMConfig", "VisuomotorSOM",
+    "kernels",
+]  # fmt: skip
+
 KERNELS = ("auto", "numba", "numpy")
 KIND = "VisuomotorSOM"
 FORMAT_VERSION = 1
-
-# Schedules x_i -> x_f over t_max trials. The papers' own tables were not available to this
-# project; the starting point is Behera & Kar's implementation of the MRS 1990 algorithm (same
-# 12×7×4 lattice and 10 000 trials; L. Behera & I. Kar, "Intelligent Systems and Control",
-# 2009): ε 1 -> 0.05, σ 2 -> 0.1, ε' 0.9 constant, σ' 2.5 -> 0.01 (σ in lattice units).
-# Changed by measurement on RIACS (10 000 trials, seed 0): ε_f 0.05 -> 0.005 (coarse error
-# 2.1 % -> 1.5 % of the reach) and ε' 0.9 -> 0.1 (a constant 0.9 lets the last trial overwrite
-# θ_r and A_r: 0.93 % -> 0.17 % after two fine moves without ``refine``).
-DEFAULT_EPS = Schedule(1.0, 0.005)
-DEFAULT_SIGMA = Schedule(2.0, 0.1)
-DEFAULT_EPS_OUT = Schedule(0.9, 0.1)
-DEFAULT_SIGMA_OUT = Schedule(2.5, 0.01)
-#: Exploration std of training fine moves, rad (this project's choice; see module notes).
-DEFAULT_EXPLORE = Schedule(0.05, 0.005)
-#: Brause's single rate γ (protocol "brause"), harmonic from 1 to 0.1 at t_max (this project's
-#: choice; he gives no values). RIACS, projected, printed forms of (3.9)/(3.10): 1 -> 0.005 left
-#: 139 mm after the fine move after 10 000 trials, 1 -> 0.1 77 mm after 4 000.
-DEFAULT_GAMMA = Schedule(1.0, 0.1)
-DEFAULT_T_MAX = 10_000
-#: Trials with |Δv| below this (input units, e.g. pixels) are skipped: the Widrow-Hoff step
-#: divides by |Δv|², and a sensed displacement this small is below any detector's resolution.
-DEFAULT_MIN_DV = 1e-3
-#: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
-DEFAULT_A_INIT = 0.1
 #: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
-#: threads, which on 2 shared cores made act_batch 4 times slower.
+#: threads, which slows small batches on a shared machine (docs/decisions.md, "The map").
 _BATCH_BLOCK = 64
-
-ScheduleLike = Schedule | tuple[float, float] | float
 
 
 def _kernel(name: str, axes: int) -> str:
@@ -155,48 +146,51 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return view
 
 
-#: Configuration entries of a saved map and their JSON types; a file that lacks one or holds
-#: another type is damaged (hand-edited or foreign). Later versions may add entries.
-_CONFIG_TYPES: dict[str, type | tuple[type, ...]] = {
-    "lattice": list, "input_dim": int, "rule": str, "averaging": str, "refine": bool,
-    "t_max": int, "schedules": dict, "a_init": (int, float), "min_dv": (int, float), "t": int,
-    "skipped": dict, "rng_state": dict,
-}  # fmt: skip
+#: Entries of a saved map beside its configuration, and their JSON types.
+_STATE_TYPES: dict[str, type] = {"t": int, "skipped": dict, "rng_state": dict}
 #: numpy bit generators a saved map may name (never an arbitrary numpy.random attribute).
 _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
-def _check_config(config: dict[str, Any]) -> None:
-    """ValueError for a saved configuration with a missing entry, a wrong type or a count < 0."""
-    for key, kind in _CONFIG_TYPES.items():
-        value = config[key]
+def _check_state(entries: dict[str, Any]) -> None:
+    """ValueError for saved state entries that are missing, of a wrong type or a count < 0."""
+    for key, kind in _STATE_TYPES.items():
+        value = entries[key]
         if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
             raise ValueError(f"config entry {key!r} is {value!r}, not of type {kind}")
-    counts = config["skipped"]
-    if config["t"] < 0 or set(counts) != {"not_visible", "small_dv"}:
-        raise ValueError(f"t = {config['t']} or skipped = {counts} is not a valid count")
+    counts = entries["skipped"]
+    if entries["t"] < 0 or set(counts) != {"not_visible", "small_dv"}:
+        raise ValueError(f"t = {entries['t']} or skipped = {counts} is not a valid count")
     if not all(isinstance(n, int) and n >= 0 for n in counts.values()):
         raise ValueError(f"skipped = {counts} holds counts that are not integers >= 0")
-    if config["rng_state"].get("bit_generator") not in _BIT_GENERATORS:
-        raise ValueError(f"unknown bit generator in {config['rng_state']}")
+    if entries["rng_state"].get("bit_generator") not in _BIT_GENERATORS:
+        raise ValueError(f"unknown bit generator in {entries['rng_state']}")
 
 
-class VisuomotorSOM(CompiledPath, Controller):
+class _Option:
+    """A read-only attribute of the map that reads its configuration."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, som: VisuomotorSOM | None, owner: type) -> Any:
+        return self if som is None else getattr(som.config, self.name)
+
+    def __set__(self, som: VisuomotorSOM, value: Any) -> None:
+        raise AttributeError(
+            f"{self.name} is an option of the map and cannot be set; use "
+            f"som = som.with_config({self.name}=...) for a map with another {self.name}"
+        )
+
+
+class VisuomotorSOM(CompiledPath, Learner):
     """Kohonen lattice with joint outputs and local linear maps (see the module docstring).
 
     Args:
         joint_lower, joint_upper: joint ranges (J,), rad; every command is clipped into them.
-        lattice: lattice shape, default (12, 7, 4) = 336 neurons (MRS 1990).
-        input_dim: D, 4 for two cameras' pixels (u1, v1, u2, v2), 3 for Cartesian input.
-        rule: "mrs" or "brause": the θ* the outputs learn towards.
-        averaging: "neighbourhood" (outputs averaged with width σ') or "winner".
-        refine: correct Ā between fine moves of one target (Broyden step; see module notes).
-        abar: Ā of the fine moves, "average" (MRS) or "local-fit" (this project's, at the
-            target; exploratory fine moves keep the average); see module notes.
-        t_max: trials over which the schedules fall from their initial to their final value.
-        eps, sigma: ε(t) and σ(t) of the w update (σ in lattice units).
-        eps_out, sigma_out: ε'(t), σ'(t) of the θ/A update and of the output averaging.
-        explore: std (rad) of the noise of fine commands made with ``explore=True``.
+        config: the map's options (:class:`~learners.som.config.SOMConfig`; default: its
+            defaults); ``options`` change single fields of it by name (``lattice=(6, 4, 2)``,
+            ``protocol="brause"``, schedules as pairs, ...).
         rng: a numpy Generator or a seed; the map's only source of randomness.
         input_low, input_high: (D,) box over which the w_r start uniformly (default [0, 1]^D;
             pass the image bounds for pixels).
@@ -204,82 +198,57 @@ class VisuomotorSOM(CompiledPath, Controller):
             pose in the arm configuration that reaches the whole workspace when the middle is
             not one, e.g. for the PUMA ``wrist_ik(workspace centre, arm=1, elbow=1)``: the map
             keeps the configuration it starts in.
-        a_init: std of the random start of A_r, as a fraction of mean joint span / mean input
-            span (0 = start at A = 0; training then relies on ``explore``).
-        min_dv: trials with |v1 − v0| below this are skipped (input units).
-        gamma: Brause's single rate for w, Θ and A under protocol "brause" (harmonic from
-            initial to final, see :func:`learners.som.schedules.harmonic`).
-        protocol: "mrs" or "brause" (Brause's own coarse move, fine move (3.7) and learning
-            (3.9)/(3.10) with the step neighbourhood; see the module docstring).
-        continual: a :class:`~learners.som.schedules.Continual` to keep re-adapting after t_max
-            when the sensed error rises (None: the standard schedules, floors from t_max on).
-            It runs the schedules above back; Brause's protocol keeps its own rate γ.
         kernel: "numba" (compiled hot path, ``learners/som/kernels.py``; needs the extra ``fast``
             and at most 3 lattice axes), "numpy" (the reference) or "auto" (numba if it can).
+            It gives the same moves, so it is not an option of the map (see ``config.py``).
+    Raises:
+        ValueError: an unknown option name (the valid ones listed), an invalid option value
+            (:class:`SOMConfig` names it) or joint ranges, input box or start that do not fit.
+
+    The options are read-only attributes (``som.protocol``, ``som.abar``, ...); a map with other
+    options and the same learned state is :meth:`with_config`.
     """
+
+    lattice = _Option()
+    input_dim = _Option()
+    rule = _Option()
+    averaging = _Option()
+    refine = _Option()
+    abar = _Option()
+    t_max = _Option()
+    eps = _Option()
+    sigma = _Option()
+    eps_out = _Option()
+    sigma_out = _Option()
+    explore = _Option()
+    gamma = _Option()
+    a_init = _Option()
+    min_dv = _Option()
+    protocol = _Option()  # the learner interface's protocol: the strategy chosen from it
+    continual = _Option()
 
     def __init__(
         self,
         joint_lower: np.ndarray,
         joint_upper: np.ndarray,
-        lattice: tuple[int, ...] = (12, 7, 4),
-        input_dim: int = 4,
-        rule: str = "mrs",
-        averaging: str = "neighbourhood",
-        refine: bool = True,
-        abar: str = "local-fit",
-        t_max: int = DEFAULT_T_MAX,
-        eps: ScheduleLike = DEFAULT_EPS,
-        sigma: ScheduleLike = DEFAULT_SIGMA,
-        eps_out: ScheduleLike = DEFAULT_EPS_OUT,
-        sigma_out: ScheduleLike = DEFAULT_SIGMA_OUT,
-        explore: ScheduleLike = DEFAULT_EXPLORE,
+        config: SOMConfig | None = None,
+        *,
         rng: np.random.Generator | int | None = None,
         input_low: np.ndarray | None = None,
         input_high: np.ndarray | None = None,
         theta_init: np.ndarray | None = None,
-        a_init: float = DEFAULT_A_INIT,
-        min_dv: float = DEFAULT_MIN_DV,
-        protocol: str = "mrs",
-        gamma: ScheduleLike = DEFAULT_GAMMA,
-        continual: Continual | None = None,
         kernel: str = "auto",
+        **options: Any,
     ) -> None:
-        if protocol not in PROTOCOLS:
-            raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
-        self.protocol = protocol
-        if rule not in RULES:
-            raise ValueError(f"unknown rule {rule!r}; valid rules: {', '.join(RULES)}")
-        if averaging not in AVERAGING:
-            raise ValueError(f"unknown averaging {averaging!r}; valid: {', '.join(AVERAGING)}")
-        if abar not in ABAR:
-            raise ValueError(f"unknown abar {abar!r}; valid: {', '.join(ABAR)}")
+        self._config = SOMConfig.of(config, **options)
         self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
         self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
-        check_finite(joint_lower=self.lower, joint_upper=self.upper, a_init=a_init, min_dv=min_dv)
+        check_finite(joint_lower=self.lower, joint_upper=self.upper)
         if self.lower.shape != self.upper.shape or not np.all(self.lower < self.upper):
             raise ValueError(
                 f"joint_lower {self.lower} and joint_upper {self.upper} need one entry per joint "
                 "with lower < upper"
             )
-        self.lattice = tuple(int(n) for n in lattice)
-        if not self.lattice or min(self.lattice) < 1:
-            raise ValueError(f"lattice must be a tuple of positive sizes, got {lattice}")
-        if int(input_dim) < 1 or int(t_max) < 1 or not (min_dv >= 0 and a_init >= 0):
-            raise ValueError(
-                f"need input_dim >= 1, t_max >= 1, min_dv >= 0, a_init >= 0; got {input_dim}, "
-                f"{t_max}, {min_dv}, {a_init}"
-            )
-        self.input_dim, self.t_max = int(input_dim), int(t_max)
-        self.rule, self.averaging, self.refine = rule, averaging, bool(refine)
-        self.abar = abar
-        self.eps, self.sigma = Schedule.of(eps), Schedule.of(sigma)
-        self.eps_out, self.sigma_out = Schedule.of(eps_out), Schedule.of(sigma_out)
-        self.explore = Schedule.of(explore)
-        self.gamma = Schedule.of(gamma)
-        harmonic(self.gamma.initial, self.gamma.final, 0, self.t_max)  # raises for a bad gamma
-        self._check_schedules()
-        self.min_dv, self.a_init = float(min_dv), float(a_init)
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         D, J = self.input_dim, self.n_joints
         low = np.zeros(D) if input_low is None else np.array(input_low, dtype=float).ravel()
@@ -303,11 +272,12 @@ class VisuomotorSOM(CompiledPath, Controller):
             raise ValueError(f"theta_init must have shape ({J},), got {start.shape}")
         self._grid = Lattice(self.lattice)
         self.kernel = _kernel(kernel, len(self.lattice))
+        self._protocol = choose(self.protocol, self.kernel)
         self._shape = np.array((1, 1, *self.lattice)[-3:], dtype=np.int64)  # 3-D, for the kernels
         self._zeros = np.zeros(self.n_joints)  # no exploration noise, for the kernels
         self._pruned = self.kernel == "numba" and math.prod(self.lattice) >= PRUNED_SEARCH_MIN
         blocks = math.prod(-(-n // kernels.BLOCK) for n in self._shape)
-        self._block_centre = np.zeros((blocks, input_dim) if self._pruned else (0, 1))
+        self._block_centre = np.zeros((blocks, D) if self._pruned else (0, 1))
         self._block_radius = np.zeros(blocks if self._pruned else 0)
         self.coords = self._grid.coords  # (N, L) lattice coordinates of each neuron
         N = self.n_neurons
@@ -317,20 +287,52 @@ class VisuomotorSOM(CompiledPath, Controller):
         self._A = self.rng.normal(0.0, a_std, size=(N, J, D)) if a_std > 0 else np.zeros((N, J, D))
         self.t = 0
         self.skipped = {"not_visible": 0, "small_dv": 0}
-        self.monitor = None if continual is None else ErrorMonitor(continual)
+        continual = self.continual
+        self._monitor = None if continual is None else ErrorMonitor(continual)
         self._version = 0  # counts changes of w, for the winner remembered from the coarse act
         self._init_compiled()
         self._sync()
         self.reset()
 
-    def _check_schedules(self) -> None:
-        """Schedules with finite values; learning rates ε, ε' at most 1 (a step past the target)."""
-        for name in ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma"):
-            schedule = getattr(self, name)
-            check_finite(**{name: (schedule.initial, schedule.final)})
-        for name in ("eps", "eps_out"):
-            if max(getattr(self, name).initial, getattr(self, name).final) > 1.0:
-                raise ValueError(f"{name} is a learning rate in [0, 1], got {getattr(self, name)}")
+    # ----------------------------------------------------------------------------- options
+    @property
+    def config(self) -> SOMConfig:
+        """The map's options (frozen; :meth:`with_config` gives a map with others)."""
+        return self._config
+
+    @property
+    def monitor(self) -> ErrorMonitor | None:
+        """The continual mode's error monitor (None without ``continual``)."""
+        return self._monitor
+
+    def with_config(self, **changes: Any) -> VisuomotorSOM:
+        """A new map with the options ``changes`` (SOMConfig field names) and this map's learned
+        state: copies of w, θ, A, t, the skip counters, the generator state and the continual
+        mode's monitor (a fresh one when ``continual`` is given). The fine-move memory starts
+        empty: the next ``act`` must be a coarse one. The kernel stays this map's.
+
+        Raises:
+            ValueError: an unknown option, an invalid value, or a change of ``lattice`` or
+                ``input_dim`` (the learned arrays have their shape).
+        """
+        config = SOMConfig.of(self._config, **changes)
+        fixed = [k for k in SHAPE_OPTIONS if getattr(config, k) != getattr(self._config, k)]
+        if fixed:
+            raise ValueError(
+                f"{', '.join(fixed)} cannot change on a learned map (its arrays have that "
+                "shape); build a new VisuomotorSOM instead"
+            )
+        som = type(self)(
+            self.lower, self.upper, config, rng=0, input_low=self.input_low,
+            input_high=self.input_high, kernel=self.kernel,
+        )  # fmt: skip
+        som._w, som._th, som._A = self._w.copy(), self._th.copy(), self._A.copy()
+        som.t, som.skipped = self.t, dict(self.skipped)
+        som.rng = copy.deepcopy(self.rng)
+        if "continual" not in changes and self._monitor is not None:
+            som._monitor = ErrorMonitor(self._monitor.params, self._monitor.state())
+        som._sync()
+        return som
 
     # ----------------------------------------------------------------------------- state
     @property
@@ -487,53 +489,15 @@ class VisuomotorSOM(CompiledPath, Controller):
             ValueError: u or v of the wrong shape or not finite, or a fine move without a coarse
                 one since the last ``reset()``; the map and its memory are then unchanged.
         """
-        if self._compiled:
-            command = self._act_compiled(u, v, explore)
-            if command is not None:
-                return command  # else an input is wrong: the checks below say what
-        if self.protocol == "brause":
-            return self._act_brause(u, v)
-        u = self._vector("u", u)
         if v is None:
-            theta, self._abar = self._coarse(u)
-            self._u, self._v, self._cmd_before = u.copy(), None, None
-        else:
-            v = self._vector("v", v)
-            if self._cmd is None:
-                raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
-            if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
-                self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
-            if self._v is None and not explore and self.abar == "local-fit":
-                self._abar = self._local_abar(u)
-            if self.refine and self._v is not None:
-                dv = v - self._v
-                dv2 = float(dv @ dv)
-                if dv2 >= self.min_dv * self.min_dv:
-                    dth = self._cmd - self._cmd_before
-                    self._abar = self._abar + np.multiply.outer(dth - self._abar @ dv, dv / dv2)
-            theta = self._cmd + self._abar @ (u - v)
-            if explore and self.params()[4] > 0:
-                theta = theta + self.rng.normal(0.0, self.params()[4], size=self.n_joints)
-            self._v, self._cmd_before = v.copy(), self._cmd
-        self._cmd = self._clip(theta)
-        return self._cmd.copy()
+            return self._protocol.coarse(self, u)
+        return self._protocol.fine(self, u, v, explore)
 
     def _local_abar(self, u: np.ndarray) -> np.ndarray:
         """Ā (J, D) of the local fit at target u (``learners/som/local_fit.py``)."""
         memo = self._last_winner
         same = memo[0] == u.tobytes() and memo[1] == self._version
         return local_abar(self._grid, memo[2] if same else self._winner(u), u, self._w, self._A)
-
-    def _act_brause(self, u: np.ndarray, v: np.ndarray | None) -> np.ndarray:
-        """Brause §3: coarse Θ_c, fine Θ_c + A_c (u − w_c) (3.7); v is not used (may be NaN)."""
-        u = self._vector("u", u)
-        if v is not None and self._cmd is None:
-            raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
-        s = self._winner(u)
-        self._last_winner = (u.tobytes(), self._version, s)
-        theta = self._th[s] if v is None else self._th[s] + self._A[s] @ (u - self._w[s])
-        self._cmd = self._clip(theta)
-        return self._cmd.copy()
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (M, D) -> (M, J), the same as ``act`` row by row.
@@ -552,20 +516,8 @@ class VisuomotorSOM(CompiledPath, Controller):
         return out
 
     def _coarse_batch(self, U: np.ndarray) -> np.ndarray:
-        M, (N, J, D) = len(U), self._A.shape
         s = (self._w2[None, :] - 2.0 * (U @ self._w.T)).argmin(1)  # (M,)
-        if self.protocol == "brause":
-            return self._clip(self._th[s])
-        sigma = self.params()[3]
-        r2 = self._grid.cutoff_radius2(sigma)
-        if self.averaging == "winner" or r2 < 1:  # the winner alone
-            return self._clip(self._th[s] + np.einsum("mjd,md->mj", self._A[s], U - self._w[s]))
-        d2 = self._grid.distances2(s)  # (M, N) |r − s_m|²
-        G = self._grid.weights(sigma).take(np.minimum(d2, r2 + 1))  # (M, N)
-        G /= G.sum(1, keepdims=True)
-        offset = self._th - np.einsum("njd,nd->nj", self._A, self._w)  # θ_r − A_r w_r, (N, J)
-        GA = (G @ self._A.reshape(N, J * D)).reshape(M, J, D)  # Ā per target
-        return self._clip(G @ offset + np.einsum("mjd,md->mj", GA, U))
+        return self._protocol.coarse_batch(self, U, s)
 
     # ----------------------------------------------------------------------------- learning
     def learn(
@@ -592,13 +544,10 @@ class VisuomotorSOM(CompiledPath, Controller):
         theta0, theta1 = np.asarray(theta0, dtype=float), np.asarray(theta1, dtype=float)
         fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
         shapes_ok = fast_ok and v0.shape == (D,) == v1.shape
-        if shapes_ok and self._compiled:
-            if self.monitor is not None:  # it observes the trial before the kernel checks it
-                self._check_trial(u, theta0, v0, theta1, v1)
-            learned = self._learn_compiled(u, theta0, v0, theta1, v1)
-            if learned is not None:
-                return learned  # else an input is wrong: the checks below say what
         if shapes_ok:
+            learned = self._protocol.learn_compiled(self, u, theta0, v0, theta1, v1)
+            if learned is not None:
+                return learned  # else no compiled path, or an input is wrong: see below
             self._check_trial(u, theta0, v0, theta1, v1)
         if not (fast_ok and math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1)):
             check_pixels("u", u, D)  # the slow path, which names what is wrong
@@ -617,80 +566,19 @@ class VisuomotorSOM(CompiledPath, Controller):
         if dv2 < self.min_dv * self.min_dv:
             self.skipped["small_dv"] += 1
             return False
-        if self.monitor is not None:
+        if self._monitor is not None:
             e = u - v0  # the coarse error: the fine move hides a shift of the images
-            if self.monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
+            if self._monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
                 self._params_t = -1  # a re-adaptation starts: the schedules run back
-        eps, sigma, eps_out, sigma_out, _ = self.params()
         key = u.tobytes()
         if self._last_winner[0] == key and self._last_winner[1] == self._version:
             s = self._last_winner[2]  # found by the coarse act for this target
         else:
             s = self._winner(u)
         self._version += 1
-        if self.protocol == "brause":
-            self._learn_brause(s, u, theta0, theta1, v0, v1, dv / dv2)
-            self.t += 1
-            return True
-        a_s = self._A[s]  # (J, D), read before any update
-        if self.rule == "mrs":
-            theta_star = self._th[s] + a_s @ (u - v0)  # (J,)
-        else:
-            theta_star = theta1 + a_s @ (self._w[s] - v1)
-        a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ dv, dv / dv2)  # (J, D)
-        self._update(s, u, theta_star, a_star, eps, sigma, eps_out, sigma_out)
+        self._protocol.learn(self, s, u, theta0, v0, theta1, v1, dv / dv2)
         self.t += 1
         return True
-
-    def _update(
-        self,
-        s: int,
-        u: np.ndarray,
-        theta_star: np.ndarray,
-        a_star: np.ndarray,
-        eps: float,
-        sigma: float,
-        eps_out: float,
-        sigma_out: float,
-    ) -> None:
-        """w_r += ε h (u − w_r); θ_r += ε' h' (θ* − θ_r), clipped; A_r += ε' h' (A* − A_r)."""
-        grid = self._grid
-        box, h = grid.neighbours(s, sigma)  # a box of the lattice, h = 0 at its far corners
-        w_k = grid.view(self._w, box)  # (*b, D) views: the updates write through
-        w_k += (eps * h)[..., None] * (u - w_k)
-        grid.view(self._w2, box)[...] = np.einsum("...d,...d->...", w_k, w_k)
-        box, h = grid.neighbours(s, sigma_out)
-        step = eps_out * h  # (*b,)
-        theta_k, a_k = grid.view(self._th, box), grid.view(self._A, box)  # (*b, J), (*b, J, D)
-        theta_k += step[..., None] * (theta_star - theta_k)
-        theta_k[...] = self._clip(theta_k)
-        a_k += step[..., None, None] * (a_star - a_k)
-
-    def _learn_brause(
-        self,
-        s: int,
-        x: np.ndarray,
-        theta0: np.ndarray,
-        theta1: np.ndarray,
-        x_i: np.ndarray,
-        x_f: np.ndarray,
-        dv_n: np.ndarray,
-    ) -> None:
-        """(3.9), (3.10) in the forms of the commands sent, then one γ and the step
-        neighbourhood (3.2) for w, Θ and A.
-
-        Args:
-            dv_n: (x_F − x_I) / |x_F − x_I|², (D,).
-        """
-        a_c, w_c = self._A[s], self._w[s].copy()  # before any update
-        theta_star = theta1 + a_c @ (w_c - x_f)  # (3.9), (J,)
-        a_star = a_c + np.multiply.outer((theta1 - theta0) - a_c @ (x_f - x_i), dv_n)  # (3.10)
-        gamma = harmonic(self.gamma.initial, self.gamma.final, self.t, self.t_max)
-        k = self._grid.within(s, self.params()[1])  # (K,) neurons with h = 1
-        self._w[k] += gamma * (x - self._w[k])
-        self._w2[k] = np.einsum("kd,kd->k", self._w[k], self._w[k])
-        self._th[k] = self._clip(self._th[k] + gamma * (theta_star - self._th[k]))
-        self._A[k] += gamma * (a_star - self._A[k])
 
     # ----------------------------------------------------------------------------- persistence
     _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before")
@@ -704,28 +592,13 @@ class VisuomotorSOM(CompiledPath, Controller):
     def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """(configuration, arrays) that :meth:`save` writes; a training run's checkpoint adds
         its own entries beside them (``envs.harness.checkpoint``), and :meth:`load` reads both."""
-        config: dict[str, Any] = {
-            "lattice": list(self.lattice),
-            "input_dim": self.input_dim,
-            "rule": self.rule,
-            "averaging": self.averaging,
-            "refine": self.refine,
-            "abar": self.abar,
-            "t_max": self.t_max,
-            "schedules": {
-                k: [getattr(self, k).initial, getattr(self, k).final]
-                for k in ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma")
-            },
-            "a_init": self.a_init,
-            "min_dv": self.min_dv,
-            "protocol": self.protocol,
-            "t": self.t,
-            "skipped": dict(self.skipped),
-            "rng_state": self.rng.bit_generator.state,
-        }
-        if self.monitor is not None:
-            config["continual"] = asdict(self.monitor.params)
-            config["continual_state"] = self.monitor.state()
+        config = self._config.to_dict()
+        continual = config.pop("continual", None)  # after the counters, as files have it
+        config.update(t=self.t, skipped=dict(self.skipped))
+        config["rng_state"] = self.rng.bit_generator.state
+        if self._monitor is not None:
+            config["continual"] = continual
+            config["continual_state"] = self._monitor.state()
         arrays = {
             "w": self._w,
             "theta": self._th,
@@ -740,38 +613,24 @@ class VisuomotorSOM(CompiledPath, Controller):
         return config, arrays
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> VisuomotorSOM:
-        """Read a map written by :meth:`save`.
+    def load(cls, path: str | os.PathLike, kernel: str = "auto") -> VisuomotorSOM:
+        """Read a map written by :meth:`save`; ``kernel`` as for the constructor.
 
         Raises:
             CheckpointError: missing, damaged or truncated file, another kind of state, another
                 format version, or contents that do not fit together.
         """
-        config, arrays = load_npz(path, KIND, FORMAT_VERSION)
+        entries, arrays = load_npz(path, KIND, FORMAT_VERSION)
         try:
-            _check_config(config)
-            state = config["rng_state"]
+            _check_state(entries)
+            config = SOMConfig.from_dict(entries)
+            state = entries["rng_state"]
             bit_generator = getattr(np.random, state["bit_generator"])()
             bit_generator.state = state
             som = cls(
-                arrays["joint_lower"],
-                arrays["joint_upper"],
-                lattice=tuple(config["lattice"]),
-                input_dim=config["input_dim"],
-                rule=config["rule"],
-                averaging=config["averaging"],
-                refine=config["refine"],
-                abar=config.get("abar", "local-fit"),  # files from before the option: default
-                t_max=config["t_max"],
-                rng=0,
-                input_low=arrays["input_low"],
-                input_high=arrays["input_high"],
-                a_init=config["a_init"],
-                min_dv=config["min_dv"],
-                protocol=config.get("protocol", "mrs"),  # files from before the option: MRS
-                continual=Continual(**config["continual"]) if "continual" in config else None,
-                **{k: tuple(v) for k, v in config["schedules"].items()},
-            )
+                arrays["joint_lower"], arrays["joint_upper"], config, rng=0,
+                input_low=arrays["input_low"], input_high=arrays["input_high"], kernel=kernel,
+            )  # fmt: skip
             for name in ("w", "theta", "A"):
                 stored, shape = arrays[name], getattr(som, name).shape
                 if stored.shape != shape or stored.dtype != np.float64:
@@ -782,10 +641,10 @@ class VisuomotorSOM(CompiledPath, Controller):
                 setattr(som, name, stored)  # copies, checks finiteness, refreshes caches
             if not np.all((som.lower <= som.theta) & (som.theta <= som.upper)):
                 raise ValueError("theta lies outside the stored joint ranges")
-            som.t = config["t"]
-            som.skipped = dict(config["skipped"])
+            som.t = entries["t"]
+            som.skipped = dict(entries["skipped"])
             if som.monitor is not None:
-                som.monitor = ErrorMonitor(som.monitor.params, config["continual_state"])
+                som._monitor = ErrorMonitor(som.monitor.params, entries["continual_state"])
             som.rng = np.random.Generator(bit_generator)
             J, D = som.n_joints, som.input_dim
             shapes = {"_u": (D,), "_cmd": (J,), "_abar": (J, D), "_v": (D,), "_cmd_before": (J,)}

@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 #: Neighbourhood weights below this are dropped (truncation for speed: an update changes by
-#: less than 1e-6 of itself; the RIACS and PUMA figures are the same to 3 digits as with 1e-12).
+#: less than 1e-6 of itself).
 H_CUTOFF = 1e-6
 _LOG_CUTOFF = math.log(1.0 / H_CUTOFF)
 

@@ -4,10 +4,8 @@ the papers).
 MRS move the arm finely with Ā = Σ_r g_r A_r / Σ_r g_r, the A_r averaged over the winner's
 lattice neighbourhood of width σ'. Late in training σ' is so small that Ā is the winner's A_s
 alone: an estimate of the inverse Jacobian ∂θ/∂u fitted to the secants of moves anywhere in
-the winner's cell, at the place w_s, not at the target u. Measured on the idealised maps
-(10 000 trials, seed 0, 400 held-out targets), ‖I − A_s J(θ*)‖ is 0.37 (PUMA) at the target's
-pose θ*: about half of it A_s's own error against the Jacobian at θ_s (0.25), half the change
-of the Jacobian between w_s and u (0.23). Each fine move then leaves about 0.15 of the error.
+the winner's cell, at the place w_s, not at the target u, so part of the remaining error of
+a fine move is the change of the Jacobian between w_s and u (``docs/decisions.md``).
 
 Here Ā is the value at u of a linear field fitted to the A_r of the winner's lattice box
 (|r_a − s_a| ≤ ``radius``): A_r ≈ B_0 + Σ_i B_i z_i(w_r), weights exp(−|r − s|²/2) (lattice

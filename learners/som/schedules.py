@@ -101,9 +101,7 @@ class Continual:
     fast: float = 0.02
     slow: float = 0.001
     trigger: float = 1.5
-    # Chosen by measurement on RIACS after a camera change (5 cm, 3°; rewinds 0-0.7 and
-    # 1000-6000 trials tried): rewinding to 0.25 and re-annealing over 3000 trials came back
-    # furthest within 3000 trials.
+    # rewind and readapt: docs/decisions.md, "The map".
     rewind: float = 0.25
     readapt: int = 3000
 
