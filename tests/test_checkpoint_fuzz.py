@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from learners import CheckpointError, VisuomotorSOM
+from learners.persistence import save_npz
 
 CASES = 2000 if os.environ.get("VISUOMOTOR_SOAK") else 200
 
@@ -118,3 +119,33 @@ def test_members_save_never_writes_are_refused_by_name(tmp_path, field, value, m
         (tmp_path / "bad.npz").write_bytes(bytes(raw))
     with pytest.raises(CheckpointError, match=message):
         VisuomotorSOM.load(tmp_path / "bad.npz")
+
+
+def crafted(tmp_path: Path, change) -> Path:
+    """The saved map with ``change(config, arrays)`` applied, written with valid CRCs."""
+    config, arrays = trained_map().state()
+    change(config, arrays)
+    return save_npz(tmp_path / "crafted.npz", "VisuomotorSOM", 1, config, arrays)
+
+
+def _huge_lattice(config, arrays):
+    config["lattice"] = [100_000] * 3  # w stays small: no allocation may follow the lattice
+
+
+def _absurd_a(config, arrays):
+    arrays["A"] = arrays["A"] * 0 + 1e250  # finite, but beyond anything a trial can teach
+
+
+def _negative_t(config, arrays):
+    config["t"] = -3
+
+
+def _unknown_protocol(config, arrays):
+    config["protocol"] = "hebb"
+
+
+@pytest.mark.parametrize("change", [_huge_lattice, _absurd_a, _negative_t, _unknown_protocol])
+def test_crafted_settings_with_valid_crcs_are_refused(tmp_path, change):
+    with pytest.raises(CheckpointError) as refused:
+        VisuomotorSOM.load(crafted(tmp_path, change))
+    assert "\n" not in str(refused.value)

@@ -120,6 +120,9 @@ __all__ = [
 ]  # fmt: skip
 
 KERNELS = ("auto", "numba", "numpy")
+#: |A_ij| beyond this many joint spans per input span is refused as damage: a Widrow-Hoff step
+#: changes A by at most a joint span per |Δv| >= ``min_dv``, so learning never gets near it.
+A_LIMIT = 1e9
 KIND = "VisuomotorSOM"
 FORMAT_VERSION = 1
 #: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
@@ -363,7 +366,15 @@ class VisuomotorSOM(CompiledPath, Learner):
 
     @A.setter
     def A(self, value: np.ndarray) -> None:
-        self._A = self._checked("A", value, self._A.shape)
+        a = self._checked("A", value, self._A.shape)
+        joint_span = (self.upper - self.lower)[:, None]  # (J, 1)
+        limit = A_LIMIT * joint_span / (self.input_high - self.input_low)  # (J, D)
+        if not np.all(np.abs(a) <= limit):
+            raise ValueError(
+                f"A has entries up to {np.abs(a).max():.3g}, beyond {A_LIMIT:g} joint spans per "
+                "input span, which no trial can teach; the values are damaged"
+            )
+        self._A = a
 
     @staticmethod
     def _checked(name: str, value: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
@@ -627,6 +638,13 @@ class VisuomotorSOM(CompiledPath, Learner):
             state = entries["rng_state"]
             bit_generator = getattr(np.random, state["bit_generator"])()
             bit_generator.state = state
+            w = arrays["w"]  # the arrays' sizes before the lattice's: no huge allocation
+            if w.shape != (math.prod(config.lattice), config.input_dim):
+                raise CheckpointError(
+                    f"{path}: array 'w' is {w.shape}, the stored lattice {config.lattice} and "
+                    f"input_dim {config.input_dim} need ({math.prod(config.lattice)}, "
+                    f"{config.input_dim}); the file is damaged or foreign"
+                )
             som = cls(
                 arrays["joint_lower"], arrays["joint_upper"], config, rng=0,
                 input_low=arrays["input_low"], input_high=arrays["input_high"], kernel=kernel,
