@@ -65,6 +65,13 @@ class Window:
         """The whole base image at its own density."""
         return cls(-0.5, -0.5, width, height, 1.0)
 
+    def on_image_border(self, height: int, width: int) -> tuple[bool, bool, bool, bool]:
+        """Which of the window's sides (left, top, right, bottom) lie on the border of the base
+        image of ``height`` × ``width`` px (a blob that reaches them is cut by the image)."""
+        right = self.left + self.width / self.density
+        bottom = self.top + self.height / self.density
+        return (self.left <= -0.5, self.top <= -0.5, right >= width - 0.5, bottom >= height - 0.5)
+
     def to_base(self, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Window pixel (column, row) arrays, (n,) each, -> base pixels (n, 2)."""
         return np.stack(
