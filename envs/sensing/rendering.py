@@ -40,6 +40,30 @@ class RenderingUnavailableError(RuntimeError):
     """No off-screen OpenGL back-end could be started."""
 
 
+def check_own_package() -> None:
+    """ImportError naming the package if the ``envs`` imported in this process is not the one
+    this module belongs to.
+
+    A folder named ``envs`` beside a script (or earlier on ``sys.path``) is imported in place of
+    this project's package; an editable install, or a package that extends its ``__path__``,
+    then still finds this project's submodules under it, which would run without the GL set-up
+    and the Gymnasium registration that this project's ``envs/__init__.py`` does.
+    """
+    parent = sys.modules.get("envs")
+    if parent is None:
+        return
+    ours = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
+    found = getattr(parent, "__file__", None)  # None: a namespace package, never this one
+    where = os.path.dirname(os.path.realpath(found)) if found else ", ".join(parent.__path__)
+    if where != ours:
+        raise ImportError(
+            f"the package 'envs' imported here is {where}, not this project's ({ours}): rename "
+            "that folder or move your script out of its folder (README: Troubleshooting)"
+        )
+
+
+check_own_package()
+
 #: Whether this process has started an OpenGL context, and whether its parent had (or had GL
 #: libraries loaded) when it forked this process: EGL and OSMesa are not fork-safe, so a context
 #: made after such a fork hangs.
