@@ -17,7 +17,8 @@ import importlib
 import os
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -38,6 +39,30 @@ _GL_MAPPED = re.compile(r"/lib(EGL|OSMesa|GLX|GL)[._][^/\n]*$", re.MULTILINE)
 class RenderingUnavailableError(RuntimeError):
     """No off-screen OpenGL back-end could be started."""
 
+
+def check_own_package() -> None:
+    """ImportError naming the package if the ``envs`` imported in this process is not the one
+    this module belongs to.
+
+    A folder named ``envs`` beside a script (or earlier on ``sys.path``) is imported in place of
+    this project's package; an editable install, or a package that extends its ``__path__``,
+    then still finds this project's submodules under it, which would run without the GL set-up
+    and the Gymnasium registration that this project's ``envs/__init__.py`` does.
+    """
+    parent = sys.modules.get("envs")
+    if parent is None:
+        return
+    ours = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
+    found = getattr(parent, "__file__", None)  # None: a namespace package, never this one
+    where = os.path.dirname(os.path.realpath(found)) if found else ", ".join(parent.__path__)
+    if where != ours:
+        raise ImportError(
+            f"the package 'envs' imported here is {where}, not this project's ({ours}): rename "
+            "that folder or move your script out of its folder (README: Troubleshooting)"
+        )
+
+
+check_own_package()
 
 #: Whether this process has started an OpenGL context, and whether its parent had (or had GL
 #: libraries loaded) when it forked this process: EGL and OSMesa are not fork-safe, so a context
@@ -188,6 +213,39 @@ def mark_gl_started() -> None:
     """Record that this process has an OpenGL context (see :func:`check_gl_allowed`)."""
     global _gl_started
     _gl_started = True
+
+
+@contextmanager
+def gl_current(gl) -> Iterator[None]:
+    """Make the GL context ``gl`` current for the block, then restore whichever context was
+    current before (that of another renderer, or none).
+
+    A context without ``as_current`` (mujoco before 3.3, display back-ends) stays current after
+    the block; every renderer here makes its own context current before it draws, so that is
+    safe too.
+    """
+    as_current = getattr(gl, "as_current", None)
+    if as_current is None:
+        gl.make_current()
+        yield
+    else:
+        with as_current():
+            yield
+
+
+def free_gl(gl, mjr_context) -> None:
+    """Free an ``MjrContext`` and then the GL context ``gl`` it was made in, leaving the current
+    context of the process as it was.
+
+    ``mjr_freeContext`` deletes its framebuffers, textures and lists by name in whatever context
+    is current, and every context numbers its objects alike: freed under another renderer's
+    context it would delete that renderer's framebuffer, and that renderer would then draw
+    nothing. Freeing the GL context first (as its own finaliser does when garbage collection
+    drops it) leaves the same wrong context current for the ``MjrContext``.
+    """
+    with gl_current(gl):
+        mjr_context.free()
+    gl.free()
 
 
 #: Render flags the sensing cameras turn off (flat colours suffice; software GL is faster).

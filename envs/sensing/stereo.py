@@ -252,7 +252,9 @@ class StereoRig(CameraPair):
         RMS distance at most ``MAX_RMS_PX`` px, and the blob at least ``1 - MAX_HIDDEN`` of the
         whole sphere's image area (at most 90 % hidden); a sliver down to 2 % of it only beside a
         camera trusted on those terms, with an outline arc of at least ``MIN_SLIVER_ARC`` rad and a
-        fitted radius that agrees with both views (:func:`envs.sensing.marker_fit.locate`).
+        fitted radius that agrees with both views (:func:`envs.sensing.marker_fit.locate`). A
+        sphere whose blob reaches the image border is cut by it and not seen in that camera,
+        whatever the fit (its arc still helps to place it in the other camera).
 
         Args:
             windows: per camera, the part of its image to render (default: all of it); pixels
@@ -286,13 +288,18 @@ class StereoRig(CameraPair):
         (:class:`SphereSighting`): which views show its blob clear of their border (a larger
         view would show no more of it), which show none of it, and the fitted centre."""
         views, images = self._render(data, marker, windows)
+        size = (self.height, self.width)
         outlines = [
-            _outline(rgb, depth, marker, cam, view.window, radius)
+            _outline(rgb, depth, marker, cam, view.window, radius, size)
             for (rgb, depth), cam, view in zip(images, self.cameras, views, strict=True)
         ]
-        pixels, visible, centre = locate([o for o, _ in outlines], radius, self.triangulate)
-        framed = np.array([framed for _, framed in outlines])
-        blank = np.array([o is None for o, _ in outlines])
+        pixels, visible, centre = locate([o for o, _, _ in outlines], radius, self.triangulate)
+        # A sphere cut by the image border is not seen, however well its arc fits.
+        cut = np.array([cut for _, _, cut in outlines])
+        visible = visible & ~cut
+        pixels[np.repeat(cut, 2)] = np.nan
+        framed = np.array([framed for _, framed, _ in outlines])
+        blank = np.array([o is None for o, _, _ in outlines])
         return SphereSighting(pixels, visible, framed, blank, centre)
 
     def _render(
@@ -316,12 +323,23 @@ def _outline(
     camera: PinholeCamera,
     window: Window,
     radius: float,
-) -> tuple[CameraOutline | None, bool]:
+    size: tuple[int, int],
+) -> tuple[CameraOutline | None, bool, bool]:
     """What one camera's view shows of the marker sphere (``radius`` m), in base pixels (None:
-    no blob), and whether the blob is clear of the view's border."""
+    no blob), whether the blob is clear of the view's border, and whether it is cut by the
+    border of the base image of ``size`` (height, width) px (it reaches a side of the view that
+    lies on that border)."""
     blob = find_blob(rgb, marker, whole=True)
     if blob is None:
-        return None, False
+        return None, False, False
+    left, top, right, bottom = window.on_image_border(*size)
+    m = blob.mask
+    cut = (
+        (left and m[:, 0].any())
+        or (top and m[0].any())
+        or (right and m[:, -1].any())
+        or (bottom and m[-1].any())
+    )
     edges = outline_edges(blob, depth, OUTLINE_DEPTH_MARGIN * radius)  # (m, 2) window px
     centroid, covariance = pixel_moments(blob.mask)  # window px
     centroid = window.to_base(centroid[:1], centroid[1:])[0]
@@ -329,4 +347,4 @@ def _outline(
     start = perspective_centre(centroid, covariance, camera.center, camera.focal)
     area = blob.count / window.density**2  # base px²
     outline = CameraOutline(camera, window.to_base(edges[:, 0], edges[:, 1]), area, start)
-    return outline, not blob.touches_border
+    return outline, not blob.touches_border, bool(cut)

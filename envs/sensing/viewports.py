@@ -10,6 +10,7 @@ is nearer the camera.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -18,6 +19,7 @@ import numpy as np
 from envs.sensing.rendering import (
     SENSING_OFF_FLAGS,
     check_gl_allowed,
+    free_gl,
     gl_start_error,
     mark_gl_started,
 )
@@ -63,6 +65,13 @@ class Window:
         """The whole base image at its own density."""
         return cls(-0.5, -0.5, width, height, 1.0)
 
+    def on_image_border(self, height: int, width: int) -> tuple[bool, bool, bool, bool]:
+        """Which of the window's sides (left, top, right, bottom) lie on the border of the base
+        image of ``height`` × ``width`` px (a blob that reaches them is cut by the image)."""
+        right = self.left + self.width / self.density
+        bottom = self.top + self.height / self.density
+        return (self.left <= -0.5, self.top <= -0.5, right >= width - 0.5, bottom >= height - 0.5)
+
     def to_base(self, cols: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Window pixel (column, row) arrays, (n,) each, -> base pixels (n, 2)."""
         return np.stack(
@@ -85,7 +94,10 @@ class ViewportRenderer:
     """Renders views side by side into one off-screen buffer of the model and reads them back.
 
     Created lazily (so envs pickle); the sensing settings of :class:`CameraRenderer` apply (no
-    shadows, reflections, skybox, textures or multisampling).
+    shadows, reflections, skybox, textures or multisampling). Its GL resources are freed by
+    :meth:`close` or, when it is garbage-collected unclosed, by a finaliser; either way with its
+    own context current and the previously current one restored after
+    (:func:`envs.sensing.rendering.free_gl`), so other renderers of the process keep theirs.
 
     Args:
         model: the MuJoCo model; its off-screen buffer is enlarged, if needed, to
@@ -95,6 +107,7 @@ class ViewportRenderer:
     def __init__(self, model, max_height: int, max_width: int) -> None:
         self.model, self.max_height, self.max_width = model, max_height, max_width
         self._gl = self._context = self._scene = None
+        self._free: weakref.finalize | None = None  # frees _context and _gl, once
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
         self._cameras: dict = {}  # camera name -> mujoco.MjvCamera
         self._geoms: dict = {}  # (groups, scene geoms) -> scene's model geoms, their ids
@@ -109,14 +122,18 @@ class ViewportRenderer:
         q.offsamples = 0
         q.numslices, q.numstacks = SPHERE_SLICES, SPHERE_STACKS  # see SPHERE_SLICES
         try:
-            self._gl = mujoco.GLContext(g.offwidth, g.offheight)
-            self._gl.make_current()
-            self._context = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_100)
+            gl = mujoco.GLContext(g.offwidth, g.offheight)
+            gl.make_current()
+            context = mujoco.MjrContext(self.model, mujoco.mjtFontScale.mjFONTSCALE_100)
         except Exception as exc:  # the GL libraries raise many different types
             raise gl_start_error(exc) from exc
         finally:
             g.offwidth, g.offheight, q.offsamples, q.numslices, q.numstacks = saved
         mark_gl_started()
+        # The finaliser holds both until it runs, so neither is freed on its own, in the wrong
+        # order or under another renderer's context (see free_gl).
+        self._free = weakref.finalize(self, free_gl, gl, context)
+        self._gl, self._context = gl, context
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
         for flag in SENSING_OFF_FLAGS:
@@ -214,15 +231,15 @@ class ViewportRenderer:
         return out
 
     def close(self) -> None:
-        if self._gl is not None:
-            self._gl.make_current()
-            self._context.free()
-            self._gl.free()
-            self._gl = self._context = self._scene = None
+        """Free the GL resources now (a later render makes new ones)."""
+        if self._free is not None:
+            self._free()
+            self._free = self._gl = self._context = self._scene = None
+            self._geoms = {}  # they were the freed scene's
 
     def __getstate__(self) -> dict:
-        return {**self.__dict__, "_gl": None, "_context": None, "_scene": None, "_options": {},
-                "_cameras": {}, "_geoms": {}}  # fmt: skip
+        return {**self.__dict__, "_gl": None, "_context": None, "_scene": None, "_free": None,
+                "_options": {}, "_cameras": {}, "_geoms": {}}  # fmt: skip
 
 
 def _set_frustum(scene, view: View) -> None:
