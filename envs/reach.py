@@ -130,9 +130,10 @@ class ReachEnv(ArmScene):
       slower than 1e-3 rad/s for 0.02 s (at least 0.02 s, at most 2 s of simulated time);
       ``"kinematic"`` sets the joints.
     - ``success_threshold`` (0.005): metres.
-    - ``width`` (320), ``height`` (240): size of the sensing images in pixels, in the cameras'
-      aspect ratio 4:3 (another shape raises ``envs.sizes.ImageSizeError`` naming both); larger
-      images sense more precisely (the cameras' field of view stays the same) and render slower.
+    - ``width`` (320): width of the sensing images in pixels.
+    - ``height`` (240): their height. The size must have the cameras' aspect ratio 4:3
+      (another shape raises ``envs.sizes.ImageSizeError`` naming both); larger images sense
+      more precisely (the cameras' field of view stays the same) and render slower.
     - ``render_mode`` (None): ``"rgb_array"`` gives the left view, the right view and the
       overview side by side, with the target crosshair and the detected marker drawn.
       ``"human"`` shows the scene (target and marker included) in MuJoCo's viewer

@@ -1,7 +1,6 @@
 """The compiled sensing kernels (extra ``fast``) against the numpy reference paths."""
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 import pytest
 
