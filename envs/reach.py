@@ -350,6 +350,11 @@ class ReachEnv(ArmScene):
         """Marker pixels (4,) sensed after the last move; NaN in a camera that did not see it."""
         return self._detected_effector.copy()
 
+    @property
+    def human_viewer(self) -> HumanViewer | None:
+        """``render_mode="human"``: the window's viewer, once the first render opened it."""
+        return self._human
+
     # -- internals -----------------------------------------------------------------------------
 
     @property
