@@ -194,7 +194,8 @@ class ReachEnv(ArmScene):
             self.spec_robot.sensed[joints],
             self.spec_robot.markers[joints],
             self.nominal_stereo,
-            (height, width),
+            width,
+            height,
         )
         self.perturbation = Perturbation()
         self.sensor = make_sensor(sensing, self)
