@@ -10,9 +10,6 @@ from typing import Any
 
 import numpy as np
 
-#: Smallest sensing image side, px (a marker must cover a few pixels).
-MIN_IMAGE_SIDE = 16
-
 
 def positive_int(name: str, value: Any) -> int:
     """An integer >= 1 (not a float, not a bool), else ValueError naming ``name``."""
@@ -28,24 +25,6 @@ def positive_number(name: str, value: Any) -> float:
     if value <= 0:
         raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
     return float(value)
-
-
-def image_size(value: Any) -> tuple[int, int]:
-    """(height, width) in whole pixels, each >= MIN_IMAGE_SIDE."""
-    pair = tuple(value) if isinstance(value, (tuple, list, np.ndarray)) else None
-    if (
-        pair is None
-        or len(pair) != 2
-        or not all(
-            isinstance(n, Integral) and not isinstance(n, bool) and n >= MIN_IMAGE_SIDE
-            for n in pair
-        )
-    ):
-        raise ValueError(
-            f"image_size must be (height, width), two whole numbers of pixels >= "
-            f"{MIN_IMAGE_SIDE}, e.g. (240, 320); got {value!r}"
-        )
-    return int(pair[0]), int(pair[1])
 
 
 def reset_options(

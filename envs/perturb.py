@@ -148,13 +148,21 @@ class SceneEditor:
         model, data: the env's MuJoCo model and data (after ``mj_forward`` at the nominal state).
         robot: robot name; site, marker: the sensed site and its marker geom.
         nominal: the nominal cameras (pixels of the env's image size).
-        workspace: where targets are drawn (nominal base).
+        width, height: the env's sensing image size, px.
     """
 
     def __init__(
-        self, model, data, robot: str, site: str, marker: str, nominal: CameraPair, size: tuple
+        self,
+        model,
+        data,
+        robot: str,
+        site: str,
+        marker: str,
+        nominal: CameraPair,
+        width: int,
+        height: int,
     ) -> None:
-        self.model, self.nominal, self.height, self.width = model, nominal, *size
+        self.model, self.nominal, self.width, self.height = model, nominal, width, height
         self._cams = [model.camera(c).id for c in CAMERAS]
         if any(model.cam_mode[c] != mujoco.mjtCamLight.mjCAMLIGHT_FIXED for c in self._cams):
             raise ValueError("perturb needs fixed cameras (mode 'fixed')")

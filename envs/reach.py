@@ -13,18 +13,15 @@ from envs import arguments
 from envs.composite import CompositeView
 from envs.perturb import Perturbation, SceneEditor
 from envs.reward import GoalPoints, reward_terms, seen_flags
-from envs.robots import ROBOTS, RobotSpec
-from envs.sensing.foveated import FoveatedSensing
-from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
-from envs.sensing.stereo import CameraPair, StereoRig
+from envs.robots import ROBOTS
+from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
+from envs.sensing.sensors import SENSING_MODES, make_sensor
+from envs.sensing.stereo import CameraPair
 from envs.sensing.triangulation import camera_floats
 from envs.viewer import HumanViewer
-from models import load_model
 
-SENSING_MODES = ("render", "project", "foveated")
 CONTROL_MODES = ("servo", "kinematic")
 SUCCESS_THRESHOLD = 0.005  # m
-IMAGE_HEIGHT, IMAGE_WIDTH = 240, 320  # sensing images, pixels
 SETTLE_SPEED = 1e-3  # rad/s: the servo move ends when every joint is slower than this ...
 SETTLE_WINDOW = 0.02  # s ... for this long (not just at a turning point of an oscillation) ...
 MIN_SETTLE_TIME = 0.02  # s ... after at least this much simulated time,
@@ -37,7 +34,7 @@ RESET_OPTIONS = {
 }
 
 
-class ReachEnv(gym.Env):
+class ReachEnv(ArmScene):
     """Reach a target with a robot arm, seen only through two cameras.
 
     The robot is a PUMA 560 (``PumaReach-v0``) or the RIACS 3-DOF arm (``RiacsReach-v0``). A red
@@ -62,7 +59,8 @@ class ReachEnv(gym.Env):
     | ``achieved_goal`` | (4,) | px | sensed marker centre (u_left, v_left, u_right, v_right) |
     | ``desired_goal`` | (4,) | px | sensed target centre, same layout |
 
-    Pixels are array-index coordinates (u right, v down) of 320×240 images (``image_size``).
+    Pixels are array-index coordinates (u right, v down) of 320×240 images (``width`` ×
+    ``height``).
     Every entry is bounded: joints by their ranges (a servo move can overshoot a commanded limit
     by ~1e-4 rad; the observation is clipped into the range, ``data.qpos`` is not), goals by the
     image, [0, width - 1] × [0, height - 1] (a marker cut by the image border is not seen, so a
@@ -132,8 +130,10 @@ class ReachEnv(gym.Env):
       slower than 1e-3 rad/s for 0.02 s (at least 0.02 s, at most 2 s of simulated time);
       ``"kinematic"`` sets the joints.
     - ``success_threshold`` (0.005): metres.
-    - ``image_size`` ((240, 320)): (height, width) of the sensing images in pixels; larger
-      images sense more precisely (the cameras' field of view stays the same) and render slower.
+    - ``width`` (320): width of the sensing images in pixels.
+    - ``height`` (240): their height. The size must have the cameras' aspect ratio 4:3
+      (another shape raises ``envs.sizes.ImageSizeError`` naming both); larger images sense
+      more precisely (the cameras' field of view stays the same) and render slower.
     - ``render_mode`` (None): ``"rgb_array"`` gives the left view, the right view and the
       overview side by side, with the target crosshair and the detected marker drawn.
       ``"human"`` shows the scene (target and marker included) in MuJoCo's viewer
@@ -155,16 +155,16 @@ class ReachEnv(gym.Env):
         sensing: str = "render",
         control: str = "servo",
         success_threshold: float = SUCCESS_THRESHOLD,
-        image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH),
+        width: int = IMAGE_WIDTH,
+        height: int = IMAGE_HEIGHT,
         render_mode: str | None = None,
         normalize: bool = False,
     ) -> None:
         if not isinstance(robot, str) or robot not in ROBOTS:
             raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
-        self.spec_robot: RobotSpec = ROBOTS[robot]
-        if isinstance(joints, bool) or joints not in self.spec_robot.joint_options:
+        if isinstance(joints, bool) or joints not in ROBOTS[robot].joint_options:
             raise ValueError(
-                f"{robot} can control {self.spec_robot.joint_options} joints, not {joints!r}"
+                f"{robot} can control {ROBOTS[robot].joint_options} joints, not {joints!r}"
             )
         if not isinstance(sensing, str) or sensing not in SENSING_MODES:
             raise ValueError(f"unknown sensing {sensing!r}; valid: {', '.join(SENSING_MODES)}")
@@ -174,45 +174,31 @@ class ReachEnv(gym.Env):
             raise ValueError(
                 f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array', 'human'"
             )
-        height, width = arguments.image_size(image_size)
-        self.image_height, self.image_width = height, width
         arguments.positive_number("success_threshold (m)", success_threshold)
+        super().__init__(robot, joints, width, height)
+        width, height = self.image_width, self.image_height
         self.robot, self.joints, self.sensing, self.control = robot, joints, sensing, control
         self.success_threshold = float(success_threshold)
         self.render_mode = render_mode
 
-        self.model = load_model(robot)
-        self.data = mujoco.MjData(self.model)
-        self._home = self.model.key("home").id
-        self._joint_ids = np.array([self.model.joint(f"joint{i + 1}").id for i in range(joints)])
-        self._qpos_ids = self.model.jnt_qposadr[self._joint_ids]
         self._actuator_ids = np.array(
             [self.model.actuator(f"joint{i + 1}").id for i in range(joints)]
         )
-        self._qpos, self._ctrl = _as_slice(self._qpos_ids), _as_slice(self._actuator_ids)
-        self.joint_lower = self.model.jnt_range[self._joint_ids, 0].copy()
-        self.joint_upper = self.model.jnt_range[self._joint_ids, 1].copy()
+        self._ctrl = as_slice(self._actuator_ids)
         self._joint_floats = (self.joint_lower.tolist(), self.joint_upper.tolist())  # rad
-        self._site = self.model.site(self.spec_robot.sensed[joints]).id
-        self._show_only_marker(self.spec_robot.markers[joints])
-        marker = self.model.geom(self.spec_robot.markers[joints]).id
-        self._marker_radius = float(self.model.geom_size[marker][0])  # m
-        mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
-        mujoco.mj_forward(self.model, self.data)
-        self.stereo = StereoRig(self.model, self.data, height, width)
         self.nominal_stereo = CameraPair(self.stereo.cameras)  # the baselines' calibration
-        self._scene = SceneEditor(
+        self._editor = SceneEditor(
             self.model,
             self.data,
             robot,
             self.spec_robot.sensed[joints],
             self.spec_robot.markers[joints],
             self.nominal_stereo,
-            (height, width),
+            width,
+            height,
         )
         self.perturbation = Perturbation()
-        self._fovea = FoveatedSensing(self.stereo) if sensing == "foveated" else None
-        self._target_radius = float(self.model.geom_size[self.model.geom("target").id][0])  # m
+        self.sensor = make_sensor(sensing, self)
         self._view = CompositeView(self.model, height, width)
 
         self._make_spaces(normalize)
@@ -318,7 +304,7 @@ class ReachEnv(gym.Env):
         return self._view.render(self.data, self._last["target"], self._detected_effector)
 
     def close(self) -> None:
-        self.stereo.close()
+        super().close()
         self._view.close()
         if self._human is not None:
             self._human.close()
@@ -350,8 +336,8 @@ class ReachEnv(gym.Env):
             rng = self.np_random if seed is None else np.random.default_rng(seed)
             change = Perturbation.random(rng, **random)
         change = Perturbation.of(change)
-        self._scene.check(change, self.spec_robot.workspace)
-        self._scene.apply(change)
+        self._editor.check(change, self.spec_robot.workspace)
+        self._editor.apply(change)
         mujoco.mj_forward(self.model, self.data)
         self.stereo.refresh(self.data)
         self.perturbation = change
@@ -365,17 +351,17 @@ class ReachEnv(gym.Env):
         """Marker pixels (4,) sensed after the last move; NaN in a camera that did not see it."""
         return self._detected_effector.copy()
 
+    @property
+    def human_viewer(self) -> HumanViewer | None:
+        """``render_mode="human"``: the window's viewer, once the first render opened it."""
+        return self._human
+
     # -- internals -----------------------------------------------------------------------------
 
     @property
     def reach(self) -> float:
         """The robot's reach in metres, for errors in % of the robot's size."""
         return self.spec_robot.reach
-
-    def _show_only_marker(self, keep: str) -> None:
-        """Hide the effector markers of the other joint options (group 5 is never drawn)."""
-        for name in set(self.spec_robot.markers.values()) - {keep}:
-            self.model.geom_group[self.model.geom(name).id] = 5
 
     def _check_action(self, action: np.ndarray) -> tuple[np.ndarray | list[float], bool]:
         """The command (J,) rad for the controlled joints, clipped into their ranges, and
@@ -413,9 +399,7 @@ class ReachEnv(gym.Env):
 
     def _move(self, command: np.ndarray | list[float]) -> float:
         if self.control == "kinematic":
-            self.data.qpos[self._qpos] = command
-            self.data.qvel[:] = 0.0
-            self._forward()
+            self.set_joints(command)
             return 0.0
         self.data.ctrl[self._ctrl] = command
         start = self.data.time
@@ -432,15 +416,14 @@ class ReachEnv(gym.Env):
                 return float(elapsed)
 
     def _sense_target(self) -> None:
-        pixels, visible = self._sense(self.data.mocap_pos[0], RED_TARGET)
+        pixels, visible = self.sensor.sense_target(self.data)
         self._visible_target = visible
         self._detected_target = pixels
         self._remember("target", pixels, visible)
 
     def _sense_effector(self) -> None:
-        pixels, visible = self._sense(
-            self.data.site_xpos[self._site], GREEN_EFFECTOR, self._marker_radius
-        )
+        # The marker is expected where the target is: that is where a reach aims.
+        pixels, visible = self.sensor.sense_effector(self.data, self._detected_target)
         self._visible_effector = visible
         self._detected_effector = pixels
         self._remember("effector", pixels, visible)
@@ -451,29 +434,9 @@ class ReachEnv(gym.Env):
         sub-pixel perspective correction and is clipped."""
         left, right = visible.tolist()
         if left and right:
-            if self.sensing != "project":
+            if self.sensor.may_leave_image:
                 pixels = np.minimum(np.maximum(pixels, 0.0), self._pixel_max[:4])
             self._last[marker] = pixels
-
-    def _sense(
-        self, point: np.ndarray, colour, radius: float | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        if self.sensing == "render":
-            return self.stereo.sense(self.data, colour, radius)
-        if self.sensing == "foveated":
-            if colour.is_target:  # whole images first, then windows where the target is
-                return self._fovea.sense(self.data, colour, self._target_radius)
-            # The marker is expected where the target is: that is where a reach aims.
-            return self._fovea.sense(self.data, colour, radius, self._detected_target)
-        (u1, v1, u2, v2), (d1, d2) = self.stereo.project_point(point)
-        u_max, v_max = self.image_width - 1, self.image_height - 1
-        left = d1 > 0 and 0 <= u1 <= u_max and 0 <= v1 <= v_max
-        right = d2 > 0 and 0 <= u2 <= u_max and 0 <= v2 <= v_max
-        nan = math.nan
-        pixels = [u1, v1, u2, v2] if left and right else [
-            u1 if left else nan, v1 if left else nan, u2 if right else nan, v2 if right else nan
-        ]  # fmt: skip
-        return np.array(pixels), np.array([left, right])
 
     def _observation(self) -> dict[str, np.ndarray]:
         # Servo moves overshoot a commanded limit by up to ~1e-4 rad: clipped into the space.
@@ -522,7 +485,7 @@ class ReachEnv(gym.Env):
 
     def _info(self, clipped: bool, settle_time: float) -> dict[str, Any]:
         target = self.data.mocap_pos[0].copy()
-        effector = self.data.site_xpos[self._site].copy()
+        effector = self.sensed_point()
         distance = math.dist(target.tolist(), effector.tolist())
         du, dv, du2, dv2 = (self._last["effector"] - self._last["target"]).tolist()
         return {
@@ -537,11 +500,3 @@ class ReachEnv(gym.Env):
             "clipped": clipped,
             "settle_time": settle_time,
         }
-
-
-def _as_slice(ids: np.ndarray) -> slice | np.ndarray:
-    """Consecutive indices as a slice (MjData arrays index a slice ~7x faster than an index
-    array), others unchanged."""
-    first = int(ids[0])
-    consecutive = ids.tolist() == list(range(first, first + len(ids)))
-    return slice(first, first + len(ids)) if consecutive else ids

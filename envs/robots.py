@@ -7,6 +7,9 @@ from dataclasses import dataclass
 from models import puma560, riacs
 from models.workspace import Workspace
 
+#: Width : height of the sensing images of both scenes (320 x 240 by default).
+CAMERA_ASPECT = (4, 3)
+
 
 @dataclass(frozen=True)
 class RobotSpec:
@@ -18,6 +21,9 @@ class RobotSpec:
         workspace: where targets are drawn.
         sensed: site whose position the effector marker shows, by number of controlled joints.
         markers: green marker geom at each of those sites.
+        image_aspect: (width, height) ratio of the sensing images that the scene's cameras are
+            made for (RIACS: their ``sensorsize``; PUMA: the ``fovy`` margin around the
+            workspace is set for it); sensing images of another shape are refused.
     """
 
     model: str
@@ -25,6 +31,7 @@ class RobotSpec:
     workspace: Workspace
     sensed: dict[int, str]
     markers: dict[int, str]
+    image_aspect: tuple[int, int] = CAMERA_ASPECT
 
     @property
     def joint_options(self) -> tuple[int, ...]:

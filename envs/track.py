@@ -8,16 +8,14 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import cv2
-import gymnasium as gym
-import mujoco
 import numpy as np
 from gymnasium import spaces
 
 from envs import arguments
+from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene
 from envs.sensing.marker_detection import GREEN_EFFECTOR
 from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, CameraRenderer
-from envs.sensing.stereo import PinholeCamera, StereoRig
-from models import load_model
+from envs.sensing.stereo import PinholeCamera
 from models.paths import DT, N_STEPS, PATH_KINDS, Path, sample_path
 from models.puma560 import DH
 from models.rotations import orientation_error
@@ -39,7 +37,7 @@ POSITION_BOUND, VELOCITY_BOUND, ROTATION_BOUND = 5.0, 100.0, 1.0 + 1e-9
 PATH_COLOUR, TRACE_COLOUR = (255, 220, 0), (0, 200, 255)
 
 
-class PumaTrackEnv(gym.Env):
+class PumaTrackEnv(ArmScene):
     r"""The 6-joint PUMA 560 follows a circle or a straight line with an orientation profile.
 
     ## Description
@@ -116,16 +114,9 @@ class PumaTrackEnv(gym.Env):
             circle_radius = arguments.positive_number("circle_radius (m)", circle_radius)
         self.render_mode, self.sensing, self.path_kind = render_mode, sensing, path_kind
         self.n_steps, self.dt, self.circle_radius = n_steps, dt, circle_radius
-        self.model = load_model("puma560")
-        # The wrist marker would merge with the tcp marker in the images: move it to group 5,
-        # which no camera of this env draws.
-        self.model.geom_group[self.model.geom("marker_wrist").id] = 5
-        self.data = mujoco.MjData(self.model)
-        mujoco.mj_resetDataKeyframe(self.model, self.data, self.model.key("home").id)
-        mujoco.mj_forward(self.model, self.data)
-        self.stereo = StereoRig(self.model, self.data)
-        self._tcp = self.model.site("tcp").id
-        self._marker_radius = float(self.model.geom_size[self.model.geom("marker_tcp").id][0])  # m
+        # All six joints: the sensed point is the tcp, and only its marker is drawn (the wrist
+        # marker would merge with it in the images).
+        super().__init__("puma560", 6, IMAGE_WIDTH, IMAGE_HEIGHT)
         self._overview: CameraRenderer | None = None
         bound = np.full(6, MAX_JOINT_STEP)
         self.action_space = spaces.Box(-bound, bound, dtype=np.float64)
@@ -152,9 +143,9 @@ class PumaTrackEnv(gym.Env):
     def _sense(self) -> bool:
         """Update the sensed TCP position; returns whether both cameras saw it."""
         if self.sensing == "project":
-            pixels = self.stereo.project(self.data.site_xpos[self._tcp])
+            pixels = self.stereo.project(self.sensed_point())
         else:
-            pixels, visible = self.stereo.sense(self.data, GREEN_EFFECTOR, self._marker_radius)
+            pixels, visible = self.stereo.sense(self.data, GREEN_EFFECTOR, self.marker_radius)
             if not visible.all():
                 return False
         self._sensed = self.stereo.triangulate(pixels)[0]
@@ -165,7 +156,7 @@ class PumaTrackEnv(gym.Env):
         return {
             "joints": self.data.qpos[:6].copy(),
             "tcp_pos": self._sensed.copy(),
-            "tcp_rot": self.data.site_xmat[self._tcp].copy(),
+            "tcp_rot": self.data.site_xmat[self._site].copy(),
             "target_pos": self.path.positions[j].copy(),
             "target_rot": self.path.rotations[j].ravel().copy(),
             "target_vel": self.path.twist(j),
@@ -173,9 +164,9 @@ class PumaTrackEnv(gym.Env):
 
     def _info(self, visible: bool) -> dict[str, Any]:
         k = self._k
-        p = self.data.site_xpos[self._tcp].copy()
+        p = self.sensed_point()
         pos_err = float(np.linalg.norm(p - self.path.positions[k]))
-        rot = self.data.site_xmat[self._tcp].reshape(3, 3)
+        rot = self.data.site_xmat[self._site].reshape(3, 3)
         ori_err = float(np.linalg.norm(orientation_error(self.path.rotations[k], rot)))
         return {
             "position_error": pos_err,
@@ -203,12 +194,11 @@ class PumaTrackEnv(gym.Env):
                 self.np_random, kind, self.n_steps, self.dt, radius=self.circle_radius
             )
         self._k = 0
-        self.data.qpos[:6] = self.path.joints[0]
-        mujoco.mj_forward(self.model, self.data)
+        self.set_joints(self.path.joints[0])
         visible = self._sense()
         if not visible:  # first sighting failed: start from the true position, say so in info
-            self._sensed = self.data.site_xpos[self._tcp].copy()
-        self.trace = [self.data.site_xpos[self._tcp].copy()]
+            self._sensed = self.sensed_point()
+        self.trace = [self.sensed_point()]
         return self._obs(), self._info(visible)
 
     def step(self, action: np.ndarray):
@@ -218,11 +208,10 @@ class PumaTrackEnv(gym.Env):
         if action.shape != (6,) or not np.isfinite(action).all():
             raise ValueError(f"action must be 6 finite joint increments (rad), got {action!r}")
         delta = np.clip(action, -MAX_JOINT_STEP, MAX_JOINT_STEP)
-        self.data.qpos[:6] = np.clip(self.data.qpos[:6] + delta, DH.lower, DH.upper)
-        mujoco.mj_forward(self.model, self.data)
+        self.set_joints(np.clip(self.data.qpos[:6] + delta, DH.lower, DH.upper))
         visible = self._sense()
         self._k = min(self._k + 1, self.path.n_steps)
-        self.trace.append(self.data.site_xpos[self._tcp].copy())
+        self.trace.append(self.sensed_point())
         info = self._info(visible)
         truncated = self._k >= self.path.n_steps
         return self._obs(), info["reward_position"], False, truncated, info
@@ -250,4 +239,4 @@ class PumaTrackEnv(gym.Env):
         if self._overview is not None:
             self._overview.close()
             self._overview = None
-        self.stereo.close()
+        super().close()

@@ -15,10 +15,11 @@ from envs.track import PumaTrackEnv
 @pytest.mark.parametrize(
     ("kwargs", "named"),
     [
-        ({"image_size": 0}, "image_size must be (height, width)"),
-        ({"image_size": (240,)}, "image_size must be (height, width)"),
-        ({"image_size": (240.5, 320)}, "got (240.5, 320)"),
-        ({"image_size": (8, 320)}, "image_size"),
+        ({"width": 0}, "width and height must be whole numbers"),
+        ({"width": (320,)}, "width and height must be whole numbers"),
+        ({"height": 240.5}, "got width=320, height=240.5"),
+        ({"width": 8, "height": 6}, "width and height"),
+        ({"width": 240, "height": 320}, "240x320 (width x height)"),
         ({"success_threshold": float("nan")}, "success_threshold"),
         ({"success_threshold": float("inf")}, "success_threshold"),
         ({"robot": ["riacs"]}, "unknown robot"),

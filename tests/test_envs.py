@@ -491,7 +491,7 @@ def test_docstring_pins_the_settle_rule_and_image_size():
     env = _env("riacs", sensing="render")
     assert (env.stereo.width, env.stereo.height) == (width, height)
     env.reset(seed=26)
-    (image, depth), _ = env.stereo._renderer.render(env.data, env.stereo.views(), (0, 2))
+    (image, depth), _ = env.stereo.render_views(env.data, (0, 2))
     assert image.shape == (height, width, 3) and depth.shape == (height, width)
 
 

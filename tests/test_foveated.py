@@ -22,9 +22,9 @@ def test_a_pixel_aligned_window_at_base_density_is_a_crop_of_the_whole_image(rig
     model, data, stereo = rig
     data.mocap_pos[0] = FAR
     mujoco.mj_forward(model, data)
-    whole = stereo._renderer.render(data, stereo.views(), GROUPS)
+    whole = stereo.render_views(data, GROUPS)
     windows = [Window(69.5, 89.5, 32, 36), Window(259.5, 87.5, 40, 40)]  # edges on pixel edges
-    parts = stereo._renderer.render(data, stereo.views(windows), GROUPS)
+    parts = stereo.render_views(data, GROUPS, windows)
     for (image, _), (crop, _), w in zip(whole, parts, windows, strict=True):
         left, top = int(w.left + 0.5), int(w.top + 0.5)
         expected = image[top : top + w.height, left : left + w.width]
@@ -68,12 +68,11 @@ def test_foveated_whole_image_and_projection_agree_on_random_poses():
     rng = np.random.default_rng(4)
     errors = {"whole": [], "foveated": []}
     while len(errors["foveated"]) < 25:
-        env.data.qpos[env._qpos_ids] = rng.uniform(env.joint_lower, env.joint_upper)
-        mujoco.mj_forward(env.model, env.data)
-        projected = env.stereo.project(env.data.site_xpos[env._site][None])[0]
-        whole, seen = env.stereo.sense(env.data, GREEN_EFFECTOR, env._marker_radius)
+        env.set_joints(rng.uniform(env.joint_lower, env.joint_upper))
+        projected = env.stereo.project(env.sensed_point()[None])[0]
+        whole, seen = env.stereo.sense(env.data, GREEN_EFFECTOR, env.marker_radius)
         guess = projected + rng.normal(0, 2, 4)
-        fov, fov_seen = env._fovea.sense(env.data, GREEN_EFFECTOR, env._marker_radius, guess)
+        fov, fov_seen = env.fovea.sense(env.data, GREEN_EFFECTOR, env.marker_radius, guess)
         if seen.all() and fov_seen.all():
             for name, px in (("whole", whole), ("foveated", fov)):
                 errors[name].extend(np.hypot(*(px - projected).reshape(2, 2).T))
@@ -105,24 +104,23 @@ def test_windows_draw_what_whole_images_draw_about_the_marker(env_id):
     geoms behind the expected marker (a finite window depth) changes no sensed pixel."""
     env = gym.make(env_id, sensing="foveated", control="kinematic").unwrapped
     env.reset(seed=0)
-    st, radius, groups = env.stereo, env._marker_radius, (GROUP_ROBOT, GROUP_MARKER)
+    st, radius, groups = env.stereo, env.marker_radius, (GROUP_ROBOT, GROUP_MARKER)
     rng = np.random.default_rng(7)
     compared = 0
     while compared < 12:
-        env.data.qpos[env._qpos_ids] = rng.uniform(env.joint_lower, env.joint_upper)
-        mujoco.mj_forward(env.model, env.data)
-        projected = st.project(env.data.site_xpos[env._site][None])[0]
+        env.set_joints(rng.uniform(env.joint_lower, env.joint_upper))
+        projected = st.project(env.sensed_point()[None])[0]
         if not np.all((projected > 20) & (projected < [300, 220, 300, 220])):
             continue
-        whole = st._renderer.render(env.data, st.views(), groups)
+        whole = st.render_views(env.data, groups)
         corners = np.round(projected - 16) - 0.5  # window edges on pixel edges
         crops = [Window(corners[0], corners[1], 32, 32), Window(corners[2], corners[3], 32, 32)]
-        parts = st._renderer.render(env.data, st.views(crops), groups)
+        parts = st.render_views(env.data, groups, crops)
         for (image, _), (crop, _), w in zip(whole, parts, crops, strict=True):
             left, top = int(w.left + 0.5), int(w.top + 0.5)
             expected = image[top : top + w.height, left : left + w.width]
             assert np.all(expected == crop, axis=-1).mean() > 0.99
-        windows = env._fovea.windows(projected + rng.normal(0, 2, 4), radius)
+        windows = env.fovea.windows(projected + rng.normal(0, 2, 4), radius)
         assert all(np.isfinite(w.depth) for w in windows)
         unlimited = [replace(w, depth=np.inf) for w in windows]
         near = st.sense_sphere(env.data, GREEN_EFFECTOR, radius, windows)

@@ -38,7 +38,7 @@ SETTINGS = [
 ]  # fmt: skip
 #: Share of the signals sent during a process's start-up rather than its work.
 STARTUP_SHARE = 0.25
-COMMON = ["--lattice", "4,3,2", "--checkpoint-every", "7", "--seed", "5"]
+COMMON = ["--lattice", "4x3x2", "--checkpoint-every", "7", "--seed", "5"]
 if SOAK:  # ten times the trials and the signals
 
     def _longer(options: list[str]) -> list[str]:

@@ -44,7 +44,7 @@ def rig():
 
 def _marker_pixels(stereo, data) -> np.ndarray:
     """(2,) green pixels per camera in the full render."""
-    views = stereo._renderer.render(data, stereo.views(), (0, 2, 4))
+    views = stereo.render_views(data, (0, 2, 4))
     return np.array([(GREEN_EFFECTOR.mask(rgb) > 0).sum() for rgb, _ in views])
 
 

@@ -148,7 +148,8 @@ def test_normalized_spaces_keep_the_contract(sensing):
         )
         np.testing.assert_allclose(joints, command, atol=2e-3)  # servo lands within 2 mrad
         size = np.tile([env.image_width - 1, env.image_height - 1], 2)
-        np.testing.assert_allclose((obs["desired_goal"] + 1) / 2 * size, env._last["target"])
+        target = np.minimum(np.maximum(env.sensed_target(), 0.0), size)  # seen, in the image
+        np.testing.assert_allclose((obs["desired_goal"] + 1) / 2 * size, target)
     check_env(env, skip_render_check=True)
     env.close()
 
@@ -164,7 +165,7 @@ def test_servo_observations_stay_in_the_space_at_the_limits(robot, joints):
     for command in (low, high, low - BEYOND, high + BEYOND, low, (low + high) / 2, high):
         obs, *_ = env.step(command)
         assert env.observation_space.contains(obs), obs
-        q = env.data.qpos[env._qpos_ids]
+        q = env.data.qpos[env.qpos_ids]
         overshoot = max(overshoot, float(np.max(np.maximum(low - q, q - high))))
     if robot == "riacs":  # precondition: without the clip its observation would leave the space
         assert overshoot > 0  # (the PUMA's servos happen to stop inside in this episode)

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-TINY = ["--trials", "20", "--lattice", "3,2,2", "--eval-every", "10", "--eval-trials", "3"]
+TINY = ["--trials", "20", "--lattice", "3x2x2", "--eval-every", "10", "--eval-trials", "3"]
 
 
 def _script(name: str, *args: str) -> subprocess.CompletedProcess:
@@ -66,10 +66,10 @@ def test_a_fresh_run_into_a_used_folder_refuses_and_leaves_it_unchanged(puma_run
 def test_resume_names_the_settings_that_may_not_change(puma_run):
     line = _one_line_error(
         _script("train", "--out", str(puma_run), "--resume", "--env", "RiacsReach-v0",
-                "--lattice", "4,4,4")
+                "--lattice", "4x4x4")
     )  # fmt: skip
     assert "--env RiacsReach-v0 (the run has PumaReach-v0)" in line
-    assert "--lattice 4,4,4 (the run has 3,2,2)" in line
+    assert "--lattice 4x4x4 (the run has 3x2x2)" in line
     assert "only --trials and --checkpoint-every may change" in line
 
 

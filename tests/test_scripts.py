@@ -43,7 +43,7 @@ def test_video_writes_the_expected_frames_and_they_are_not_blank(tmp_path):
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("run")
-    train.main(["--trials", "40", "--lattice", "4,3,2", "--eval-every", "20", "--eval-trials",
+    train.main(["--trials", "40", "--lattice", "4x3x2", "--eval-every", "20", "--eval-trials",
                 "5", "--out", str(out)])  # fmt: skip
     return out
 
@@ -76,4 +76,4 @@ def test_train_rejects_a_bad_lattice_with_a_clear_message():
         [sys.executable, str(SCRIPTS / "train.py"), "--lattice", "12,x,4"],
         capture_output=True, text=True, check=False,
     )  # fmt: skip
-    assert result.returncode == 2 and "--lattice wants sizes like 12,7,4" in result.stderr
+    assert result.returncode == 2 and "a lattice is written like 12x7x4" in result.stderr

@@ -218,7 +218,7 @@ def test_a_larger_image_scales_the_pinhole_and_renders_it(robot):
     """Twice the image size: pixel centres map as u' = 2u + 0.5 (index coordinates), the field
     of view unchanged; rendered sensing still agrees with the projection."""
     small = ReachEnv(robot=robot, sensing="render", control="kinematic")
-    large = ReachEnv(robot=robot, sensing="render", control="kinematic", image_size=(480, 640))
+    large = ReachEnv(robot=robot, sensing="render", control="kinematic", width=640, height=480)
     points = small.spec_robot.workspace.sample(np.random.default_rng(7), 50)
     np.testing.assert_allclose(
         large.stereo.project(points), 2 * small.stereo.project(points) + 0.5, atol=1e-9
@@ -231,5 +231,5 @@ def test_a_larger_image_scales_the_pinhole_and_renders_it(robot):
 
 
 def test_image_size_must_be_positive_pixels():
-    with pytest.raises(ValueError, match="image_size"):
-        ReachEnv(image_size=(0, 320))
+    with pytest.raises(ValueError, match="width and height"):
+        ReachEnv(width=0, height=320)

@@ -52,8 +52,8 @@ def test_grid_expands_to_every_combination_with_parsed_values():
     assert {c.env for c in configs} == {"RiacsReach-v0", "PumaReach-v0"}
     assert {c.lattice for c in configs} == {(3, 3, 3), (12, 7, 4)}
     assert {c.seed for c in configs} == {0, 1}
-    assert expand({"refine": "false", "image_size": "480x640"})[0] == RunConfig(
-        refine=False, image_size=(480, 640)
+    assert expand({"refine": "false", "image_size": "640x480"})[0] == RunConfig(
+        refine=False, width=640, height=480
     )
     assert len({cell_name(c) for c in configs}) == 8  # one folder per cell
     scaled = expand({"lattice": [3, 20], "trials": 1000, "trials_per_neuron": ["4"]})

@@ -29,7 +29,7 @@ CHILD = textwrap.dedent(
 
     env = ReachEnv(robot="riacs", sensing="render", control="kinematic", render_mode="human")
     env.reset(seed=0)
-    handle = env._human.handle
+    handle = env.human_viewer.handle
     opened = handle.is_running()
     for command in np.linspace(env.joint_lower, env.joint_upper, 5)[1:-1]:
         env.step(command)

@@ -59,17 +59,14 @@ def time_sense(env_id: str, repeats: int, seed: int) -> dict[str, float]:
     (``stereo.sense``), and foveated effector sensing with windows about the target's sensed
     pixels, the arm placed so that its marker is FOVEA_OFFSET from the target (as after a
     reach), measured on the same poses in the same run."""
-    import mujoco  # after envs chose the GL back-end
-
     env = gym.make(env_id, sensing="foveated", control="kinematic").unwrapped
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     poses = []  # (joints, target) with the marker in both images
     while len(poses) < repeats:
         q = rng.uniform(env.joint_lower, env.joint_upper)
-        env.data.qpos[env._qpos_ids] = q
-        mujoco.mj_forward(env.model, env.data)
-        marker = env.data.site_xpos[env._site].copy()
+        env.set_joints(q)
+        marker = env.sensed_point()
         offset = rng.normal(size=3)
         target = marker + FOVEA_OFFSET * offset / np.linalg.norm(offset)
         uv = env.stereo.project(np.stack([marker, target]))  # (2, 4)
@@ -80,18 +77,17 @@ def time_sense(env_id: str, repeats: int, seed: int) -> dict[str, float]:
     seconds = np.zeros((repeats, 3))  # target, effector whole images, effector foveated
     fell_back = np.zeros(repeats, dtype=bool)
     for i, (q, target) in enumerate(poses):
-        env.data.qpos[env._qpos_ids] = q
         env.data.mocap_pos[0] = target
-        mujoco.mj_forward(env.model, env.data)
+        env.set_joints(q)
         start = time.perf_counter()
         expected, _ = env.stereo.sense(env.data, RED_TARGET)
         middle = time.perf_counter()
-        env.stereo.sense(env.data, GREEN_EFFECTOR, env._marker_radius)
+        env.stereo.sense(env.data, GREEN_EFFECTOR, env.marker_radius)
         end = time.perf_counter()
-        fallbacks = env._fovea.fallbacks
-        env._fovea.sense(env.data, GREEN_EFFECTOR, env._marker_radius, expected)
+        fallbacks = env.fovea.fallbacks
+        env.fovea.sense(env.data, GREEN_EFFECTOR, env.marker_radius, expected)
         seconds[i] = middle - start, end - middle, time.perf_counter() - end
-        fell_back[i] = env._fovea.fallbacks > fallbacks
+        fell_back[i] = env.fovea.fallbacks > fallbacks
     env.close()
     ms = seconds.mean(axis=0) * MS_PER_S
     # Foveated calls that found the marker in (or hidden inside) the windows, without rendering

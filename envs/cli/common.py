@@ -12,6 +12,8 @@ from typing import NoReturn, TypeVar
 
 from tqdm import tqdm
 
+from envs import sizes
+
 T = TypeVar("T")
 #: Exit status of a command-line mistake (as argparse uses).
 USAGE_ERROR = 2
@@ -75,6 +77,39 @@ positive_float = _number(float, lambda x: math.isfinite(x) and x > 0, "a finite 
 nonnegative_float = _number(float, lambda x: math.isfinite(x) and x >= 0, "a finite number >= 0")
 
 
+def _text_type(parse: Callable[[str], T], name: str) -> Callable[[str], T]:
+    """An argparse type from a parser of text that raises ValueError with the message."""
+
+    def convert(text: str) -> T:
+        try:
+            return parse(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    convert.__name__ = name
+    return convert
+
+
+#: ``--image-size 640x480``: (width, height) px (:func:`envs.sizes.parse_size`).
+image_size = _text_type(sizes.parse_size, "WIDTHxHEIGHT")
+#: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`).
+lattice = _text_type(sizes.parse_lattice, "lattice")
+
+
+def check_image_size(env_id: str, size: tuple[int, int]) -> None:
+    """Exit with one line (status 2) unless ``size`` (width, height) px suits the cameras of
+    ``env_id`` (a registered reach env)."""
+    import gymnasium as gym
+
+    from envs.robots import ROBOTS
+
+    aspect = ROBOTS[gym.spec(env_id).kwargs["robot"]].image_aspect
+    try:
+        sizes.check_image_size(*size, aspect)
+    except sizes.ImageSizeError as exc:
+        fail(f"--image-size for {env_id}: {exc}")
+
+
 def progress(items: Iterable[T], what: str, unit: str) -> Iterable[T]:
     """``items`` with a progress bar on stderr (shown for loops that take a while)."""
     return tqdm(items, desc=what, unit=unit, file=sys.stderr, mininterval=0.5, leave=False)
@@ -99,7 +134,7 @@ def user_errors() -> tuple[type[BaseException], ...]:
     from envs.sensing.rendering import RenderingUnavailableError
     from learners.persistence import CheckpointError
 
-    return (CheckpointError, RunFolderError, RenderingUnavailableError)
+    return (CheckpointError, RunFolderError, RenderingUnavailableError, sizes.ImageSizeError)
 
 
 def fail(message: str) -> None:

@@ -19,13 +19,13 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli import train
 from envs.cli.controllers import REACH_ENVS, SPECS, Ticking, make_controller
 from envs.harness import plots
 from envs.harness.evaluation import evaluate
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
-from envs.reach import SENSING_MODES
+from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
 from envs.sensing.rendering import render_camera
+from envs.sizes import format_size
 from learners.som.config import ABAR, PROTOCOLS
 from learners.som.controller import VisuomotorSOM
 
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
     p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
     p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
-    p.add_argument("--image-size", type=train.parse_image_size,
+    p.add_argument("--image-size", type=cli.image_size,
                    help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip
     p.add_argument("--targets", type=cli.positive_int, default=1000)
     p.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
@@ -73,9 +73,13 @@ def main(argv: list[str] | None = None) -> dict:
     env_id = args.env or run_config.get("env", "RiacsReach-v0")
     sensing = args.sensing or run_config.get("sensing", "project")
     control = args.control or run_config.get("control", "kinematic")
-    image_size = args.image_size or tuple(run_config.get("image_size", (240, 320)))
+    width, height = args.image_size or (
+        run_config.get("width", IMAGE_WIDTH),
+        run_config.get("height", IMAGE_HEIGHT),
+    )
+    cli.check_image_size(env_id, (width, height))
     out = args.out or (args.run / "eval" if args.run else Path("runs/eval"))
-    env = gym.make(env_id, sensing=sensing, control=control, image_size=image_size)
+    env = gym.make(env_id, sensing=sensing, control=control, width=width, height=height)
     specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
 
     rows, results = [], {}
@@ -93,13 +97,12 @@ def main(argv: list[str] | None = None) -> dict:
                 name += "+fit" * (controller.abar == "local-fit") + "+refine" * controller.refine
         results[name] = result
         rows.append({"controller": name, **result.summary()})
-    height, width = image_size
-    print(f"{env_id}  sensing={sensing} ({width}x{height})  control={control}  "
+    print(f"{env_id}  sensing={sensing} ({format_size(width, height)})  control={control}  "
           f"{args.targets} targets, seed {args.seed}")  # fmt: skip
     print(format_table(rows))
     out.mkdir(parents=True, exist_ok=True)
     summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
-               "image_size": [height, width],
+               "width": width, "height": height,
                "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
     (out / "evaluation.json").write_text(json.dumps(summary, indent=1))
 

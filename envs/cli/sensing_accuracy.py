@@ -14,21 +14,22 @@ import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli import train
 from envs.studies.sensing_accuracy import measure, table
 
 
 def main(argv: list[str] | None = None) -> dict:
     p = cli.parser(__doc__)
     p.add_argument("--poses", type=cli.positive_int, default=400, help="random poses per arm")
-    p.add_argument("--image-size", type=train.parse_image_size, default="320x240",
+    p.add_argument("--image-size", type=cli.image_size, default="320x240",
                    help="sensing images WIDTHxHEIGHT")  # fmt: skip
     p.add_argument("--seed", type=cli.nonnegative_int, default=0)
     p.add_argument("--json", type=Path, help="also write the rows here")
     args = p.parse_args(argv)
+    width, height = args.image_size
     results = {}
     for env_id in ("RiacsReach-v0", "PumaReach-v0"):
-        env = gym.make(env_id, sensing="render", control="kinematic", image_size=args.image_size)
+        cli.check_image_size(env_id, args.image_size)
+        env = gym.make(env_id, sensing="render", control="kinematic", width=width, height=height)
         env.reset(seed=args.seed)
         rows = table(measure(env, args.poses, np.random.default_rng(args.seed)))
         env.close()

@@ -6,7 +6,7 @@
     .venv/bin/python scripts/sweep.py --spec sweep.yaml --address HEAD:6379   # on a Ray cluster
 
 Axes: robot (riacs, puma) and every training setting of scripts/train.py (lattice as 12x7x4
-or n for n×n×n, rule, refine, sensing, control, image_size as 480x640, trials, seed, ...).
+or n for n×n×n, rule, refine, sensing, control, image_size as 640x480, trials, seed, ...).
 A spec file (JSON or YAML) maps axes to a value or a list of values; --grid adds to it.
 Writes OUT/cells/<cell>/ (run folders), OUT/results.csv, OUT/results.json and
 OUT/error_vs_neurons.png. Run it again to finish or extend a sweep: finished cells are skipped.

@@ -23,6 +23,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 import envs  # noqa: F401  (registers the envs)
+from envs import sizes
 from envs.cli import common as cli
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
@@ -30,21 +31,9 @@ from envs.reach import SENSING_MODES
 from learners.som.config import PROTOCOLS, RULES
 
 
-def parse_lattice(text: str) -> tuple[int, ...]:
-    try:
-        shape = tuple(int(n) for n in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--lattice wants sizes like 12,7,4, got {text!r}"
-        ) from None
-    if not shape or min(shape) < 1:
-        raise argparse.ArgumentTypeError(f"--lattice sizes must be positive, got {text!r}")
-    return shape
-
-
 def _text(value: object) -> str:
     """A setting as it is written on the command line."""
-    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
+    return sizes.format_lattice(value) if isinstance(value, tuple) else str(value)
 
 
 def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str]) -> list[str]:
@@ -56,18 +45,11 @@ def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str
             if ours != theirs:
                 name = f.name.replace("_", "-")
                 out.append(f"--{name} {_text(ours)} (the run has {_text(theirs)})")
+    size = (stored.width, stored.height)  # --image-size WIDTHxHEIGHT sets both fields
+    if "image_size" in given and tuple(args.image_size) != size:
+        ours, theirs = sizes.format_size(*args.image_size), sizes.format_size(*size)
+        out.append(f"--image-size {ours} (the run has {theirs})")
     return out
-
-
-def parse_image_size(text: str) -> tuple[int, int]:
-    """'640x480' (width x height) -> (height, width)."""
-    try:
-        width, height = (int(n) for n in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--image-size wants WIDTHxHEIGHT pixels like 640x480, got {text!r}"
-        ) from None
-    return height, width
 
 
 def main(argv: list[str] | None = None) -> Path:
@@ -76,7 +58,8 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--env", default=d.env, choices=("RiacsReach-v0", "PumaReach-v0"))
     p.add_argument("--trials", type=cli.positive_int, default=d.trials)
     p.add_argument("--seed", type=cli.nonnegative_int, default=d.seed)
-    p.add_argument("--lattice", type=parse_lattice, default=d.lattice, help="e.g. 12,7,4")
+    p.add_argument("--lattice", type=cli.lattice, default=sizes.format_lattice(d.lattice),
+                   help="lattice shape, e.g. 12x7x4")  # fmt: skip
     p.add_argument("--rule", default=d.rule, choices=RULES)
     p.add_argument(
         "--protocol",
@@ -87,8 +70,8 @@ def main(argv: list[str] | None = None) -> Path:
     )
     p.add_argument("--sensing", default=d.sensing, choices=SENSING_MODES)
     p.add_argument("--control", default=d.control, choices=("servo", "kinematic"))
-    height, width = d.image_size
-    p.add_argument("--image-size", type=parse_image_size, default=f"{width}x{height}",
+    size = sizes.format_size(d.width, d.height)
+    p.add_argument("--image-size", type=cli.image_size, default=size,
                    help="sensing images WIDTHxHEIGHT, e.g. 640x480")  # fmt: skip
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
     p.add_argument("--eval-every", type=cli.positive_int, default=d.eval_every, help="trials")
@@ -98,6 +81,7 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--resume", action="store_true", help="continue the run saved in --out")
     p.add_argument("--force", action="store_true", help="start over in a folder holding a run")
     args = p.parse_args(argv)
+    cli.check_image_size(args.env, args.image_size)
 
     with SignalStop() as stop:
         if args.resume:
@@ -115,7 +99,7 @@ def main(argv: list[str] | None = None) -> Path:
             config = RunConfig(
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
                 trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
-                protocol=args.protocol, image_size=args.image_size,
+                protocol=args.protocol, width=args.image_size[0], height=args.image_size[1],
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)

@@ -70,11 +70,20 @@ class RunConfig:
     fine_moves: int = 2
     refine: bool = _MAP.refine
     abar: str = _MAP.abar  # Ā of the test-time fine moves (training moves use the average)
-    image_size: tuple[int, int] = (IMAGE_HEIGHT, IMAGE_WIDTH)  # sensing images, px
+    width: int = IMAGE_WIDTH  # sensing images, px
+    height: int = IMAGE_HEIGHT  # px
 
     def __post_init__(self) -> None:  # tuples also when read back from JSON lists
         object.__setattr__(self, "lattice", tuple(int(n) for n in self.lattice))
-        object.__setattr__(self, "image_size", tuple(int(n) for n in self.image_size))
+
+    @classmethod
+    def from_stored(cls, stored: dict[str, Any]) -> RunConfig:
+        """The configuration as a checkpoint stored it; older checkpoints hold the image size
+        as ``image_size`` = [height, width]."""
+        stored = dict(stored)
+        if "image_size" in stored:
+            stored["height"], stored["width"] = stored.pop("image_size")
+        return cls(**stored)
 
     def map_config(self) -> SOMConfig:
         """The options of the run's map (ValueError naming a bad one)."""
@@ -82,7 +91,11 @@ class RunConfig:
 
     def make_env(self, seed_offset: int = 0) -> gym.Env:
         env = gym.make(
-            self.env, sensing=self.sensing, control=self.control, image_size=self.image_size
+            self.env,
+            sensing=self.sensing,
+            control=self.control,
+            width=self.width,
+            height=self.height,
         )
         env.reset(seed=self.seed + seed_offset)
         return env
@@ -169,8 +182,8 @@ class Trainer:
             raise CheckpointError(f"{path}: no checkpoint to resume; train without --resume")
         stored = read_unit(path)[0]["config"]
         try:
-            return RunConfig(**{**stored, "lattice": tuple(stored["lattice"])})
-        except TypeError as exc:
+            return RunConfig.from_stored(stored)
+        except (TypeError, ValueError) as exc:
             raise CheckpointError(f"{path}: the run's configuration is damaged ({exc})") from exc
 
     @classmethod

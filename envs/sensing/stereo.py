@@ -302,6 +302,13 @@ class StereoRig(CameraPair):
         blank = np.array([o is None for o, _, _ in outlines])
         return SphereSighting(pixels, visible, framed, blank, centre)
 
+    def render_views(
+        self, data, groups: Sequence[int], windows: Sequence[Window] | None = None
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Both cameras' (RGB (h, w, 3) uint8, depth (h, w) m) images of the geom ``groups``:
+        their whole images, or the given windows (:meth:`views`)."""
+        return self._renderer.render(data, self.views(windows), groups)
+
     def _render(
         self, data, marker: MarkerColour, windows: Sequence[Window] | None
     ) -> tuple[list[View], list[tuple[np.ndarray, np.ndarray]]]:

@@ -37,23 +37,17 @@ class RecalibratedIK(Controller):
         self.closed_form = AnalyticIK.for_robot(base.stereo.triangulate, base.robot, base.joints)
         self.data = mujoco.MjData(base.model)
         mujoco.mj_resetDataKeyframe(base.model, self.data, base.model.key("home").id)
-        self._qpos, self._site = base._qpos_ids, base._site
-        self._dofs = base.model.jnt_dofadr[base._joint_ids]
-        self._jac = np.zeros((3, base.model.nv))
 
     def solve(self, point: np.ndarray) -> np.ndarray:
         """Joints (J,) that put the changed arm's sensed point at ``point`` (3,), world m."""
-        model, data = self.env.model, self.data
+        scene, data = self.env, self.data
         theta = self.closed_form.solve(point[None, :] - self.env.perturbation.base_shift)[0][0]
         for _ in range(MAX_ITERATIONS):
-            data.qpos[self._qpos] = theta
-            mujoco.mj_kinematics(model, data)
-            error = point - data.site_xpos[self._site]
+            scene.set_joints(theta, data)
+            error = point - scene.sensed_point(data)
             if error @ error < TOLERANCE**2:
                 break
-            mujoco.mj_comPos(model, data)  # the Jacobian needs cdof
-            mujoco.mj_jacSite(model, data, self._jac, None, self._site)
-            step = np.linalg.lstsq(self._jac[:, self._dofs], error, rcond=None)[0]
+            step = np.linalg.lstsq(scene.sensed_point_jacobian(data), error, rcond=None)[0]
             theta = np.clip(theta + step, self.env.joint_lower, self.env.joint_upper)
         return theta
 

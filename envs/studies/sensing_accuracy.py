@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 
+import gymnasium as gym
 import numpy as np
 
 from envs.sensing.foveated import FoveatedSensing
@@ -25,27 +26,24 @@ PREDICTION_PX = 2.0
 INSIDE_PX = 3.0
 
 
-def measure(env, poses: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
+def measure(env: gym.Env, poses: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
     """Per pose and camera (poses, 2): hidden fraction, and the px error of whole-image and of
     foveated sensing (NaN where not reported visible)."""
-    import mujoco
-
     base = env.unwrapped
-    st, radius = base.stereo, base._marker_radius
+    st, radius = base.stereo, base.marker_radius
     fovea = FoveatedSensing(st)
     out = {name: np.full((poses, 2), np.nan) for name in ("hidden", "whole", "foveated")}
     i = 0
     while i < poses:
-        base.data.qpos[base._qpos_ids] = rng.uniform(base.joint_lower, base.joint_upper)
-        mujoco.mj_forward(base.model, base.data)
-        projected = st.project(base.data.site_xpos[base._site][None])[0]  # (4,)
+        base.set_joints(rng.uniform(base.joint_lower, base.joint_upper))
+        projected = st.project(base.sensed_point()[None])[0]  # (4,)
         u, v = projected[::2], projected[1::2]
         if not (np.all((u > INSIDE_PX) & (u < st.width - 1 - INSIDE_PX))
                 and np.all((v > INSIDE_PX) & (v < st.height - 1 - INSIDE_PX))):  # fmt: skip
             continue
         counts = []
         for groups in ((GROUP_SCENE, GROUP_MARKER), (GROUP_SCENE, GROUP_ROBOT, GROUP_MARKER)):
-            views = st._renderer.render(base.data, st.views(), groups)
+            views = st.render_views(base.data, groups)
             blobs = [find_blob(rgb, GREEN_EFFECTOR, whole=True) for rgb, _ in views]
             counts.append([0 if b is None else b.count for b in blobs])
         alone, seen = np.array(counts, dtype=float)

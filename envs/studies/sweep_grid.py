@@ -4,7 +4,8 @@ table.
 
 A grid maps each :class:`~envs.harness.training.RunConfig` field (plus ``robot``, "riacs" or
 "puma", for ``env``) to one value or a list of values; the cells are all combinations. ``lattice``
-values are "12x7x4" or one size n for an n×n×n cube. Each cell lives in ``OUT/cells/<name>/``, its
+values are "12x7x4" or one size n for an n×n×n cube; ``image_size`` values are WIDTHxHEIGHT,
+"640x480" (or give ``width`` and ``height``). Each cell lives in ``OUT/cells/<name>/``, its
 name made of its values and a hash of its whole configuration, so a cell is found again by
 any sweep that contains it:
 
@@ -34,11 +35,14 @@ from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from envs.harness.evaluation import evaluate
 from envs.harness.run_folder import locked
 from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer
+from envs.robots import ROBOTS as ROBOT_SPECS
+from envs.sizes import check_image_size, format_lattice, parse_lattice, parse_size
 from learners.persistence import CheckpointError, write_atomic
 
 ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0"}
@@ -60,12 +64,11 @@ def parse_value(axis: str, value: Any) -> Any:
         if value not in ROBOTS:
             raise ValueError(f"unknown robot {value!r}; valid robots: {', '.join(ROBOTS)}")
         return ROBOTS[value]
+    if axis == "image_size":
+        return parse_size(value)
     default = _fields()[axis]
     if axis == "lattice":
-        sizes = [int(value)] * 3 if str(value).isdigit() else str(value).lower().split("x")
-        return tuple(int(n) for n in sizes)
-    if axis == "image_size":
-        return tuple(int(n) for n in str(value).lower().split("x"))
+        return (int(value),) * 3 if str(value).isdigit() else parse_lattice(value)
     if isinstance(default, bool):
         if str(value).lower() not in ("true", "false", "1", "0"):
             raise ValueError(f"{axis} takes true or false, got {value!r}")
@@ -84,19 +87,37 @@ def expand(grid: dict[str, Any]) -> list[RunConfig]:
             raise ValueError(f"trials_per_neuron takes one value, got {per_neuron}")
         per_neuron = per_neuron[0]
     per_neuron = float(per_neuron)
-    valid = {*_fields(), "robot"}
+    valid = {*_fields(), "robot", "image_size"}
     unknown = sorted(set(grid) - valid)
     if unknown:
         raise ValueError(f"unknown grid axes {unknown}; valid axes: {', '.join(sorted(valid))}")
     if "robot" in grid and "env" in grid:
         raise ValueError("give the arm as robot (riacs, puma) or env, not both")
+    if "image_size" in grid and {"width", "height"} & set(grid):
+        raise ValueError("give the image size as image_size (640x480) or width and height")
     axes = {k: v if isinstance(v, list) else [v] for k, v in grid.items()}
     values = [[parse_value(k, v) for v in vs] for k, vs in axes.items()]
     names = ["env" if k == "robot" else k for k in axes]
-    configs = [RunConfig(**dict(zip(names, c, strict=True))) for c in itertools.product(*values)]
+    configs = [_config(dict(zip(names, c, strict=True))) for c in itertools.product(*values)]
     return [
         replace(c, trials=max(c.trials, round(per_neuron * math.prod(c.lattice)))) for c in configs
     ]
+
+
+def _config(values: dict[str, Any]) -> RunConfig:
+    """The RunConfig of one cell's values (``image_size`` (width, height) sets both fields),
+    its image size checked against the cameras of its env."""
+    if "image_size" in values:
+        values["width"], values["height"] = values.pop("image_size")
+    config = RunConfig(**values)
+    try:
+        robot = gym.spec(config.env).kwargs["robot"]
+    except (gym.error.Error, KeyError):
+        raise ValueError(
+            f"unknown env {config.env!r}; valid: {', '.join(ROBOTS.values())}"
+        ) from None
+    check_image_size(config.width, config.height, ROBOT_SPECS[robot].image_aspect)
+    return config
 
 
 def cell_name(config: RunConfig) -> str:
@@ -105,7 +126,7 @@ def cell_name(config: RunConfig) -> str:
     robot = {v: k for k, v in ROBOTS.items()}.get(config.env, config.env)
     parts = [robot if axis == "robot" else values.get(axis) for axis in NAME_AXES]
     text = "_".join(
-        "x".join(map(str, p)) if isinstance(p, (tuple, list)) else str(p)
+        format_lattice(p) if isinstance(p, (tuple, list)) else str(p)
         for p in parts
         if p is not None
     )

@@ -1,0 +1,138 @@
+"""The simulated arm scene that the environments share: what the simulation can tell.
+
+In the spirit of dm_control's split of *Physics* from *Task*, :class:`ArmScene` holds the MuJoCo
+model and data of a robot's ``scene.xml``, the controlled joints, the sensed point with its marker,
+and the stereo rig that sees them, and answers questions about them through public methods. The
+environments (:class:`envs.reach.ReachEnv`, :class:`envs.track.PumaTrackEnv`) add the task:
+spaces, reset, step, reward. Studies, benchmarks and tests use the same methods instead of
+reaching into an env's private attributes.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+
+from envs.robots import ROBOTS, RobotSpec
+from envs.sensing.foveated import FoveatedSensing
+from envs.sensing.stereo import StereoRig
+from envs.sizes import check_image_size
+from models import load_model
+
+#: Default sensing image size, pixels.
+IMAGE_WIDTH, IMAGE_HEIGHT = 320, 240
+#: Geom group that no camera or viewer of the project draws: markers of other joint options.
+HIDDEN_GROUP = 5
+
+
+class ArmScene(gym.Env):
+    """A robot arm in its scene with two sensing cameras, the base of the arm environments.
+
+    Args:
+        robot: a key of :data:`envs.robots.ROBOTS`.
+        joints: number of controlled joints (``joint1``..``joint<joints>``); they decide the
+            sensed point (:attr:`RobotSpec.sensed`) and its green marker, the only one drawn.
+        width, height: sensing image size in pixels, in the cameras' aspect ratio
+            (:attr:`RobotSpec.image_aspect`).
+    Raises:
+        ImageSizeError: a size that is not whole pixels, too small, or of another aspect ratio.
+
+    The data starts at the keyframe ``home``, with every position computed. Renderers start at
+    the first rendering (GL resources are not pickled).
+    """
+
+    def __init__(self, robot: str, joints: int, width: int, height: int) -> None:
+        self.spec_robot: RobotSpec = ROBOTS[robot]
+        width, height = check_image_size(width, height, self.spec_robot.image_aspect)
+        self.image_width, self.image_height = width, height
+        self.model = load_model(robot)
+        self.data = mujoco.MjData(self.model)
+        self._home = self.model.key("home").id
+        self._joint_ids = np.array([self.model.joint(f"joint{i + 1}").id for i in range(joints)])
+        self._qpos_ids = self.model.jnt_qposadr[self._joint_ids]
+        self._qpos = as_slice(self._qpos_ids)
+        self._dof_ids = self.model.jnt_dofadr[self._joint_ids]
+        self.joint_lower = self.model.jnt_range[self._joint_ids, 0].copy()  # rad
+        self.joint_upper = self.model.jnt_range[self._joint_ids, 1].copy()  # rad
+        self._site = self.model.site(self.spec_robot.sensed[joints]).id
+        marker = self.spec_robot.markers[joints]
+        for name in set(self.spec_robot.markers.values()) - {marker}:
+            self.model.geom_group[self.model.geom(name).id] = HIDDEN_GROUP
+        self._marker_radius = float(self.model.geom_size[self.model.geom(marker).id][0])  # m
+        self._target_radius = float(self.model.geom_size[self.model.geom("target").id][0])  # m
+        mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
+        mujoco.mj_forward(self.model, self.data)
+        self.stereo = StereoRig(self.model, self.data, height, width)
+        self._fovea: FoveatedSensing | None = None
+
+    # -- the controlled joints -----------------------------------------------------------------
+
+    @property
+    def qpos_ids(self) -> np.ndarray:
+        """(J,) indices of the controlled joints in ``data.qpos``."""
+        return self._qpos_ids.copy()
+
+    def set_joints(self, q: np.ndarray, data: mujoco.MjData | None = None) -> None:
+        """Put the controlled joints at ``q`` (J,) rad, at rest, and compute the positions
+        (``mj_kinematics`` and ``mj_camlight``: what sensing and rendering read).
+
+        Args:
+            data: another MjData of this scene's model (default: the scene's own).
+        """
+        data = self.data if data is None else data
+        data.qpos[self._qpos] = q
+        data.qvel[:] = 0.0
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_camlight(self.model, data)
+
+    # -- the sensed point ----------------------------------------------------------------------
+
+    def sensed_point(self, data: mujoco.MjData | None = None) -> np.ndarray:
+        """World position (3,) m of the sensed point (the marker's centre), a copy."""
+        return (self.data if data is None else data).site_xpos[self._site].copy()
+
+    def sensed_point_jacobian(self, data: mujoco.MjData | None = None) -> np.ndarray:
+        """∂(sensed point)/∂(controlled joints), (3, J) m/rad, at the positions in ``data``
+        (after :meth:`set_joints`)."""
+        data = self.data if data is None else data
+        jac = np.zeros((3, self.model.nv))
+        mujoco.mj_comPos(self.model, data)  # the Jacobian needs cdof
+        mujoco.mj_jacSite(self.model, data, jac, None, self._site)
+        return jac[:, self._dof_ids]
+
+    @property
+    def sensed_site_id(self) -> int:
+        """MuJoCo id of the sensed site."""
+        return self._site
+
+    @property
+    def marker_radius(self) -> float:
+        """Radius (m) of the green marker sphere at the sensed point."""
+        return self._marker_radius
+
+    @property
+    def target_radius(self) -> float:
+        """Radius (m) of the red target sphere."""
+        return self._target_radius
+
+    # -- the cameras ---------------------------------------------------------------------------
+
+    @property
+    def fovea(self) -> FoveatedSensing:
+        """Foveated sensing through this scene's stereo rig (made at the first use, then kept:
+        ``fovea.fallbacks`` counts its calls that rendered the whole images)."""
+        if self._fovea is None:
+            self._fovea = FoveatedSensing(self.stereo)
+        return self._fovea
+
+    def close(self) -> None:
+        self.stereo.close()
+
+
+def as_slice(ids: np.ndarray) -> slice | np.ndarray:
+    """Consecutive indices as a slice (MjData arrays index a slice faster than an index
+    array), others unchanged."""
+    first = int(ids[0])
+    consecutive = ids.tolist() == list(range(first, first + len(ids)))
+    return slice(first, first + len(ids)) if consecutive else ids
