@@ -14,7 +14,7 @@ import pytest
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.cli import evaluate, train, video
 
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+from helpers import SCRIPTS
 
 
 def _frames(path: Path) -> list[np.ndarray]:
