@@ -63,3 +63,14 @@ def one_line_error(result: subprocess.CompletedProcess) -> str:
     lines = [line for line in result.stderr.splitlines() if "error:" in line]
     assert len(lines) == 1, result.stderr
     return lines[0]
+
+
+def assert_drawn_png(path: Path) -> None:
+    """The file at ``path`` decodes as a PNG image with something drawn on it (more than one
+    colour). What the figure shows is tested on the Figure itself (tests/test_figures.py)."""
+    import matplotlib.image
+
+    image = matplotlib.image.imread(path)  # (height, width, channels) floats in [0, 1]
+    assert image.ndim == 3 and min(image.shape[:2]) > 100, image.shape
+    colours = np.unique(image.reshape(-1, image.shape[2]), axis=0)
+    assert len(colours) > 2, f"{path} is blank"
