@@ -1,6 +1,6 @@
-"""The command lines explain themselves (issue 11, item 9): help with defaults and the whole
-description, values checked by argparse, user errors as one line with status 2, progress on
-stderr, line-buffered output, no internal acceptance wording, files readable by others."""
+"""The command lines explain themselves: help with defaults and the whole description, values
+checked by argparse, user errors as one line with status 2, progress on stderr, line-buffered
+output, no internal acceptance wording, files readable by others."""
 
 from __future__ import annotations
 
