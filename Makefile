@@ -57,3 +57,22 @@ bench: $(VENV)/.installed
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache .ruff_cache
+
+# The oldest mujoco and gymnasium that pyproject.toml allows (its ">=" read as "=="), in a venv
+# of its own, with the tests of the envs and the off-screen rendering.
+MIN_VENV := .venv-min
+MIN_TESTS := tests/test_rendering.py tests/test_envs.py
+.PHONY: test-min-versions
+
+$(MIN_VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(MIN_VENV)
+	$(MIN_VENV)/bin/python -m pip install --quiet --upgrade pip
+	grep -oE '"(mujoco|gymnasium)>=[0-9.]+"' pyproject.toml | tr -d '"' | sed 's/>=/==/' \
+		> $(MIN_VENV)/constraints.txt
+	$(MIN_VENV)/bin/python -m pip install --quiet -c $(MIN_VENV)/constraints.txt -e ".[dev]"
+	touch $@
+
+test-min-versions: $(MIN_VENV)/.installed
+	$(MIN_VENV)/bin/python -c "import mujoco, gymnasium; print('mujoco', mujoco.__version__, \
+		'gymnasium', gymnasium.__version__)"
+	$(MIN_VENV)/bin/python -m pytest -q $(MIN_TESTS)

@@ -1,5 +1,6 @@
-"""NATEnet: node allocation and topographical encoding (seed 001), prestructured for
-differential inverse kinematics, and the path-tracking controller that uses it.
+"""NATEnet: node allocation and topographical encoding (the NATEnet paper in the README's
+sources), prestructured for differential inverse kinematics, and the path-tracking controller
+that uses it.
 
 **Network.** Node i has a centre x_i in input space (joint angles, rad), a width σ_i (rad) and an
 output matrix Y_i of shape ``output_shape`` (p, q). Its activity is a_i(x) = exp(-r_i²/σ_i²),
@@ -19,7 +20,7 @@ output-space error (the smallest change of M that makes the observed moves right
     e = E·ΔX⁺   (p, q)     (K = 1: e = E Δxᵀ/‖Δx‖², normalised LMS; K ≥ q with ΔX of full rank:
                             e = ΔΘ·ΔX⁺ - M, the error against the least-squares local inverse)
 
-**Learning step** s (seed, section 2), with error measure M_e = ‖E‖_F / ‖ΔΘ‖_F:
+**Learning step** s (the paper's section 2), with error measure M_e = ‖E‖_F / ‖ΔΘ‖_F:
 
 * allocate when M_e > T_e(s) = (T0 - e_f)·exp(-s/τ) + e_f and max_i a_i(x) < T_a (and fewer than
   ``max_nodes`` nodes): centre x_N = x; width σ_N = λ·min_i ‖x_N - x_i‖ (``sigma_init`` for the
@@ -33,11 +34,11 @@ output-space error (the smallest change of M that makes the observed moves right
 ``fixed_grid`` builds the comparison net: centres on a regular grid, σ = λ·(smallest grid
 spacing), outputs zero, allocation off (delta rule only).
 
-Where the seed's extracted text is ambiguous: its delta rule reads Δy_i = η·a_i(x)·e; the
-normalisation by Σa (the gradient of the normalised output) is taken from the issue. The seed
-gives a new node the desired output y*; here it gets the output that makes the whole net right at
-x, which equals y* when no other node is active there. The error measure, the first node's width
-and every numeric default are this module's choices (the seed's first pages give none).
+Where the paper is ambiguous: its delta rule reads Δy_i = η·a_i(x)·e; here the step is divided
+by Σa, which makes it the gradient of the normalised output. The paper gives a new node the
+desired output y*; here it gets the output that makes the whole net right at x, which equals y*
+when no other node is active there. The error measure, the first node's width
+and every numeric default are this module's choices (the paper gives none).
 """
 
 from __future__ import annotations
@@ -57,7 +58,7 @@ KIND, FORMAT_VERSION = "NATEnet", 1
 #: Largest magnitude of an input (joint angle, rad), joint move (rad) or TCP move (m, rad): far
 #: beyond any arm, and small enough that squared distances cannot overflow.
 MAX_MAGNITUDE = 1e3
-#: Defaults (the seed gives no numbers; these were tuned on PumaTrack-v0, see the report).
+#: Defaults: the paper gives no numbers; these were chosen on PumaTrack-v0 (docs/decisions.md).
 LAMBDA = 0.87  # width factor: Platt's (1991) κ for the resource-allocating network
 ETA = 0.5  # delta-rule rate
 T0 = 0.9  # initial error threshold; an empty net has M_e = 1, so the first move allocates

@@ -11,6 +11,8 @@ from models.analyses import brause_linear_error as B
 from models.puma560 import wrist_center, wrist_ik
 from models.puma560.kinematics import jacobian
 
+from helpers import assert_drawn_png
+
 #: Table 6a as printed (n: SE, "3SE = 4 byte", "2SE = 4 byte"), typed from the report.
 PRINTED = {
     10: (1.5e4, 20e3, 30e3),
@@ -142,4 +144,4 @@ def test_script_writes_the_table_and_a_fit_near_minus_two(tmp_path):
     assert round(published["n"], 1) == 39.6 and round(published["r_equal"], 1) == 16.4
     figures = ("fig5f_joints", "fig5g_joint_error", "fig5h_cartesian_error", "fig5i_fit")
     for name in (*figures, "fig6_2_storage_error", "figB_1_optimal_resolution"):
-        assert (tmp_path / f"{name}.png").stat().st_size > 0
+        assert_drawn_png(tmp_path / f"{name}.png")

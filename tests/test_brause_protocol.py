@@ -13,16 +13,14 @@ from learners.som.controller import VisuomotorSOM
 from learners.som.lattice import Lattice
 from learners.som.schedules import harmonic
 
+from helpers import SMALL_COORDS as COORDS
+from helpers import hand_set_map
+
 LOW, HIGH = np.array([-3.0, -3.0]), np.array([3.0, 3.0])
-COORDS = [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]  # lattice (3, 2), C order
 
 
 def small_map(**kw) -> VisuomotorSOM:
-    som = VisuomotorSOM(LOW, HIGH, lattice=(3, 2), input_dim=2, rng=0, protocol="brause", **kw)
-    som.w = np.array(COORDS, dtype=float)
-    som.theta = np.array([[0.1 * k, -0.2 * k] for k in range(6)])
-    som.A = np.array([[[1.0 + k, 0.5], [0.0, 2.0 - 0.3 * k]] for k in range(6)])
-    return som
+    return hand_set_map(LOW, HIGH, protocol="brause", **kw)
 
 
 def test_coarse_command_is_the_winners_theta_exactly():

@@ -1,6 +1,6 @@
-"""The command lines explain themselves (issue 11, item 9): help with defaults and the whole
-description, values checked by argparse, user errors as one line with status 2, progress on
-stderr, line-buffered output, no internal acceptance wording, files readable by others."""
+"""The command lines explain themselves: help with defaults and the whole description, values
+checked by argparse, user errors as one line with status 2, progress on stderr, line-buffered
+output, no internal acceptance wording, files readable by others."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ import os
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from learners.persistence import write_atomic
 
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+from helpers import SCRIPTS, one_line_error
+
 COMMANDS = sorted(p.stem for p in SCRIPTS.glob("*.py"))
 
 
@@ -24,12 +24,6 @@ def _run(*args: str, **kw) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, *args], capture_output=True, text=True, check=False, **kw
     )
-
-
-def _one_line_error(result: subprocess.CompletedProcess) -> str:
-    assert result.returncode == 2, result.stderr
-    assert "Traceback" not in result.stderr, result.stderr
-    return result.stderr.strip().splitlines()[-1]
 
 
 @pytest.mark.parametrize("name", COMMANDS)
@@ -65,7 +59,7 @@ def test_every_script_explains_itself_with_defaults_and_its_whole_description(na
 )
 def test_bad_values_and_user_errors_are_one_line_with_status_2(args, message, tmp_path):
     result = _run(str(SCRIPTS / args[0]), *args[1:], cwd=tmp_path)
-    assert message in _one_line_error(result)
+    assert message in one_line_error(result)
     assert not any(tmp_path.iterdir())  # nothing written
 
 

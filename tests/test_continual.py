@@ -12,15 +12,13 @@ from learners.som.controller import DEFAULT_EPS, DEFAULT_EPS_OUT, VisuomotorSOM
 from learners.som.schedules import Continual, ErrorMonitor, Schedule
 from models import riacs
 
+from helpers import riacs_pixels
+
 T_MAX = 100
 CAMERAS_MOVED = 60.0  # px, both images
 
 
-def pixels(theta: np.ndarray, shift: float = 0.0) -> np.ndarray:
-    """The RIACS report's cameras (f = 1, d = 0.3) at 200 px per unit, both images moved by
-    ``shift`` px (the cameras moved): pure numpy."""
-    point = riacs.robot3df(riacs.LINK1, riacs.LINK2, *theta)
-    return 160.0 + shift + 200.0 * np.array(riacs.camera(1.0, 0.3, *point))
+pixels = riacs_pixels
 
 
 def trial(som: VisuomotorSOM, target: np.ndarray, shift: float = 0.0) -> None:

@@ -1,5 +1,5 @@
 """Env arguments are checked before any state or random number changes, and the error names the
-argument (issue 11, item 7)."""
+argument."""
 
 from __future__ import annotations
 

@@ -475,7 +475,7 @@ def test_docstring_pins_every_argument_default():
     signature = inspect.signature(ReachEnv.__init__).parameters
     defaults = {n: p.default for n, p in signature.items() if n != "self"}
     assert documented == defaults
-    assert documented["success_threshold"] == reach.SUCCESS_THRESHOLD == 0.005  # 5 mm, issue 3
+    assert documented["success_threshold"] == reach.SUCCESS_THRESHOLD == 0.005  # 5 mm
 
 
 def test_docstring_pins_the_settle_rule_and_image_size():

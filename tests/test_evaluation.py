@@ -7,6 +7,8 @@ from envs.harness.evaluation import Evaluation, carried_forward, evaluate
 from envs.harness.trials import Trial
 from learners.base import Controller
 
+from helpers import assert_drawn_png
+
 
 def test_a_trial_stopped_after_the_coarse_move_keeps_its_coarse_distance():
     trial = Trial(target_px=np.zeros(4), start_distance=0.5, start_pixel_error=40.0,
@@ -89,9 +91,11 @@ def test_an_evaluation_built_without_moves_made_counts_every_trial_complete():
 
 
 @pytest.mark.parametrize("name", ["error_map", "error_histogram", "reached_3d"])
-def test_plots_draw_trials_that_stopped(tmp_path, name):
+def test_plots_are_written_where_asked(tmp_path, name):
+    """The files; what they show (every trial, stopped ones included) is in test_figures.py."""
     from envs.harness import plots
 
     result = evaluate(_ScriptedEnv(), _Still(), trials=4, fine_moves=2)
-    path = getattr(plots, name)(result, tmp_path / f"{name}.png")
-    assert path is not None and path.stat().st_size > 0
+    path = getattr(plots, name)(result, tmp_path / "new folder" / f"{name}.png")
+    assert path == tmp_path / "new folder" / f"{name}.png"
+    assert_drawn_png(path)

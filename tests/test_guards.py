@@ -1,5 +1,5 @@
-"""Finite but absurd values are refused before anything changes (issue 11, item 6): learner inputs
-far outside the input box, constructor numbers, and damaged or hand-edited checkpoint files."""
+"""Finite but absurd values are refused before anything changes: learner inputs far outside the
+input box, constructor numbers, and damaged or hand-edited checkpoint files."""
 
 from __future__ import annotations
 

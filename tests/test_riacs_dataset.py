@@ -8,6 +8,8 @@ from envs.cli import riacs_dataset
 from learners.persistence import load_npz
 from models.analyses import riacs_dataset as D
 
+from helpers import assert_drawn_png
+
 
 @pytest.fixture(scope="module")
 def data():
@@ -75,4 +77,4 @@ def test_script_writes_npz_csv_and_plots(tmp_path):
     np.testing.assert_allclose(csv, arrays["data"], rtol=1e-9, atol=1e-12)
     header = (tmp_path / "train.csv").read_text().splitlines()[0]
     assert header == "x,y,z,x1,y1,x2,y2,theta1,theta2,theta3"
-    assert (tmp_path / "axis_projections.png").stat().st_size > 0
+    assert_drawn_png(tmp_path / "axis_projections.png")

@@ -14,7 +14,7 @@ import pytest
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.cli import evaluate, train, video
 
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
+from helpers import SCRIPTS, assert_drawn_png
 
 
 def _frames(path: Path) -> list[np.ndarray]:
@@ -68,7 +68,7 @@ def test_evaluate_compares_controllers_on_the_same_targets(run, tmp_path, capsys
     assert random["mean_mm"][0] > summary["controllers"][0]["mean_mm"][0]
     for plot in ("learning_curve", "error_histogram", "lattice_left_camera", "reached_3d",
                  "error_map_coarse", "error_map_final"):  # fmt: skip
-        assert (tmp_path / f"{plot}.png").stat().st_size > 10_000
+        assert_drawn_png(tmp_path / f"{plot}.png")
 
 
 def test_train_rejects_a_bad_lattice_with_a_clear_message():

@@ -15,19 +15,17 @@ from learners.som.lattice import H_CUTOFF
 from learners.som.schedules import Schedule
 from models import riacs
 
+from helpers import SMALL_COORDS as COORDS
+from helpers import hand_set_map, riacs_pixels
+
 LOW, HIGH = np.array([-1.0, -2.0]), np.array([1.0, 2.0])  # J = 2 joints of the small maps
-COORDS = [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]  # lattice (3, 2), C order
 
 
 def small_map(**kw) -> VisuomotorSOM:
     """Lattice (3, 2), 2-D input, 2 joints, with hand-set arrays: w_r at the lattice point.
     Fine moves with MRS's averaged Ā unless ``abar`` says otherwise (the hand computations)."""
     kw.setdefault("abar", "average")
-    som = VisuomotorSOM(LOW, HIGH, lattice=(3, 2), input_dim=2, rng=0, **kw)
-    som.w = np.array(COORDS, dtype=float)
-    som.theta = np.array([[0.1 * k, -0.2 * k] for k in range(6)])
-    som.A = np.array([[[1.0 + k, 0.5], [0.0, 2.0 - 0.3 * k]] for k in range(6)])
-    return som
+    return hand_set_map(LOW, HIGH, **kw)
 
 
 def gauss(s: int, sigma: float) -> np.ndarray:
@@ -251,10 +249,7 @@ def test_same_seed_same_map_other_seed_other_map():
     assert not np.array_equal(a.w, c.w) and not np.array_equal(a.A, c.A)
 
 
-def pixels(theta: np.ndarray) -> np.ndarray:
-    """The RIACS report's cameras (f = 1, d = 0.3) scaled to 200 px per unit: pure numpy."""
-    point = riacs.robot3df(riacs.LINK1, riacs.LINK2, *theta)
-    return 160.0 + 200.0 * np.array(riacs.camera(1.0, 0.3, *point))
+pixels = riacs_pixels
 
 
 def train(som: VisuomotorSOM, targets: np.ndarray, start: int = 0) -> None:

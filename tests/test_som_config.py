@@ -214,7 +214,7 @@ def test_all_schedules_are_stored():
 @pytest.fixture(scope="module")
 def mrs_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("mrs_run")
-    train.main(["--trials", "300", "--lattice", "4,3,2", "--eval-every", "300", "--eval-trials",
+    train.main(["--trials", "300", "--lattice", "4x3x2", "--eval-every", "300", "--eval-trials",
                 "5", "--out", str(out)])  # fmt: skip
     return out
 

@@ -26,8 +26,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from envs.cli import common as cli
+from envs.harness.plots import save_figure
 from models.analyses import brause_linear_error as B
 from models.analyses import brause_optimal_resolution as RES
 from models.puma560 import DH, WORKSPACE_BASE_LOWER, WORKSPACE_BASE_UPPER
@@ -203,8 +205,25 @@ def slope_scan(spacing: float) -> dict:
     }
 
 
+#: The error figures along the path: (key of the study, unit, scale from SI, file, title).
+PATH_ERRORS = (
+    ("joint_max", "rad", 1.0, "fig5g_joint_error.png", "Fig. 5g: maximal joint error e^LA"),
+    ("cart", "mm", 1e3, "fig5h_cartesian_error.png", "Fig. 5h: maximal Cartesian error"),
+)
+DPI = 120
+
+
 def plot_path(study: dict, out: Path) -> None:
-    s, n = study["s"], study["n"]
+    """Write Figs. 5f, 5g and 5h of the path study into the folder ``out``."""
+    save_figure(joints_figure(study), out / "fig5f_joints.png", DPI, bbox_inches=None)
+    for key, unit, scale, name, title in PATH_ERRORS:
+        figure = path_error_figure(study, key, unit, scale, title)
+        save_figure(figure, out / name, DPI, bbox_inches=None)
+
+
+def joints_figure(study: dict) -> Figure:
+    """Fig. 5f: the exact joint angles θ1..θ3 (deg) against the path position s, one line each."""
+    s = study["s"]
     fig, ax = plt.subplots(figsize=(6, 4))
     for i in range(3):
         ax.plot(s, np.degrees(study["theta"][:, i]), label=f"θ{i + 1}")
@@ -215,25 +234,32 @@ def plot_path(study: dict, out: Path) -> None:
     )
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out / "fig5f_joints.png", dpi=120)
-    plt.close(fig)
-    for key, unit, scale, name, title in (
-        ("joint_max", "rad", 1.0, "fig5g_joint_error.png", "Fig. 5g: maximal joint error e^LA"),
-        ("cart", "mm", 1e3, "fig5h_cartesian_error.png", "Fig. 5h: maximal Cartesian error"),
-    ):
-        fig, ax = plt.subplots(figsize=(6, 4))
-        for value in PLOT_N:
-            i = int(np.flatnonzero(n == value)[0])
-            ax.semilogy(s, study[key][i] * scale, label=f"n = {value}")
-        ax.axvline(s[study["P"]], color="grey", ls=":", label="P")
-        ax.set(xlabel="path position s", ylabel=f"error ({unit})", title=title)
-        ax.legend()
-        fig.tight_layout()
-        fig.savefig(out / name, dpi=120)
-        plt.close(fig)
+    return fig
+
+
+def path_error_figure(study: dict, key: str, unit: str, scale: float, title: str) -> Figure:
+    """Figs. 5g, 5h: the error ``study[key]`` (times ``scale``, in ``unit``) along the path, one
+    line per n of :data:`PLOT_N`, and the point P as a vertical line."""
+    s, n = study["s"], study["n"]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for value in PLOT_N:
+        i = int(np.flatnonzero(n == value)[0])
+        ax.semilogy(s, study[key][i] * scale, label=f"n = {value}")
+    ax.axvline(s[study["P"]], color="grey", ls=":", label="P")
+    ax.set(xlabel="path position s", ylabel=f"error ({unit})", title=title)
+    ax.legend()
+    fig.tight_layout()
+    return fig
 
 
 def plot_fit(study: dict, som: list[dict], out: Path) -> None:
+    """Write Fig. 5i into the folder ``out``."""
+    save_figure(fit_figure(study, som), out / "fig5i_fit.png", DPI, bbox_inches=None)
+
+
+def fit_figure(study: dict, som: list[dict]) -> Figure:
+    """Fig. 5i: e^LA at P against n (exact, path maximum, the fit, Brause's fit and the learned
+    maps' errors per protocol) and, right, the approximation resolution (5.9)."""
     n, P = study["n"], study["P"]
     e = study["joint_max"][:, P]
     fit = study["fits"]["joint [rad]"]
@@ -272,8 +298,7 @@ def plot_fit(study: dict, som: list[dict], out: Path) -> None:
         title="Fig. 5i right: approximation resolution (5.9)",
     )
     fig.tight_layout()
-    fig.savefig(out / "fig5i_fit.png", dpi=120)
-    plt.close(fig)
+    return fig
 
 
 #: r_w (bits) along which Figs. 6.2 and B.1 are drawn (the paper plots against s(r_w)).
@@ -376,7 +401,22 @@ _ADJUST = {"left": 0.07, "right": 0.98, "bottom": 0.12, "top": 0.92, "wspace": 0
 
 
 def plot_resolution(res: dict, out: Path) -> None:
-    styles = dict(zip([k for k in res if k != "published"], ("-", "--", ":"), strict=True))
+    """Write Figs. 6.2 and B.1 of the resolution study into the folder ``out``."""
+    storage = out / "fig6_2_storage_error.png"
+    save_figure(storage_error_figure(res), storage, DPI, bbox_inches=None)
+    optimal = out / "figB_1_optimal_resolution.png"
+    save_figure(optimal_resolution_figure(res), optimal, DPI, bbox_inches=None)
+
+
+def _styles(res: dict) -> dict[str, str]:
+    """A line style per error model of the resolution study."""
+    return dict(zip([k for k in res if k != "published"], ("-", "--", ":"), strict=True))
+
+
+def storage_error_figure(res: dict) -> Figure:
+    """Fig. 6.2: joint error e^MAX (a) and Cartesian error (b) against storage, optimal and
+    equal resolutions per error model, and Brause's published point."""
+    styles = _styles(res)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
     for name, ls in styles.items():
         curve = res[name]["curve"]
@@ -403,8 +443,13 @@ def plot_resolution(res: dict, out: Path) -> None:
     axes[0].legend(fontsize=6)
     axes[1].legend(fontsize=6)
     fig.subplots_adjust(**_ADJUST)  # tight_layout takes seconds on 16-decade log axes
-    fig.savefig(out / "fig6_2_storage_error.png", dpi=120)
-    plt.close(fig)
+    return fig
+
+
+def optimal_resolution_figure(res: dict) -> Figure:
+    """Fig. B.1: the optimal resolutions r_w, r_θ, r_A (a) and neurons per dimension n (b)
+    against storage per error model, and Brause's published point."""
+    styles, p = _styles(res), RES.PUBLISHED
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
     for name, ls in styles.items():
         curve = res[name]["curve"]
@@ -419,8 +464,7 @@ def plot_resolution(res: dict, out: Path) -> None:
     ax.legend(fontsize=6)
     ax2.legend(fontsize=6)
     fig.subplots_adjust(**_ADJUST)  # tight_layout takes seconds on 16-decade log axes
-    fig.savefig(out / "figB_1_optimal_resolution.png", dpi=120)
-    plt.close(fig)
+    return fig
 
 
 #: The learned maps: Brause's protocol as published, and MRS with this project's additions

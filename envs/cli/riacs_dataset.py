@@ -20,8 +20,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from envs.cli import common as cli
+from envs.harness.plots import save_figure
 from learners.persistence import save_npz
 from models.analyses import riacs_dataset as D
 from models.riacs import LINK1, LINK2
@@ -47,6 +49,13 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def plot_projections(data: np.ndarray, path: Path) -> None:
+    """Write :func:`projections_figure` to ``path``."""
+    save_figure(projections_figure(data), path, dpi=120, bbox_inches=None)
+
+
+def projections_figure(data: np.ndarray) -> Figure:
+    """The data set's effector positions (columns x, y, z of ``data``, one point per row): a 3-D
+    view and the XY, XZ and YZ projections, as in the report's appendix."""
     x, y, z = data[:, 0], data[:, 1], data[:, 2]
     fig = plt.figure(figsize=(10, 9))
     ax = fig.add_subplot(2, 2, 1, projection="3d")
@@ -58,8 +67,7 @@ def plot_projections(data: np.ndarray, path: Path) -> None:
         ax.set(xlabel=la, ylabel=lb, title=f"{la.upper()}{lb.upper()} axis projection")
         ax.set_aspect("equal")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return fig
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -84,7 +84,8 @@ def summary(ev: dict) -> dict:
 
 
 def acceptance(metrics: dict) -> dict:
-    """The issue's figures: NATEnet on unseen r = 0.1 m circles, 100 steps per revolution."""
+    """The acceptance figures: NATEnet on unseen r = 0.1 m circles, 100 steps per revolution,
+    against the ACCEPT_MM and ACCEPT_DEG bounds."""
     s = metrics["tracking"]["NATEnet"]["circle"]
     return {
         "position_mm_mean": s["position_mm_mean"],

@@ -1,5 +1,10 @@
 """Evaluation figures (matplotlib, headless): learning curve, error histogram, the lattice in a
-camera image, reached positions in 3-D, and an error map across the workspace."""
+camera image, reached positions in 3-D, and an error map across the workspace.
+
+Each figure is built by a ``*_figure`` function that returns the matplotlib Figure (tests read
+its titles, labels and lines), and written by the function of the plain name through
+:func:`save_figure`.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +15,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from envs.harness.evaluation import Evaluation
 
@@ -21,8 +27,18 @@ def _move_name(k: int) -> str:
 
 
 def learning_curve(rows: list[dict], reach: float, path: Path) -> Path:
+    """Write :func:`learning_curve_figure` to ``path``."""
+    return save_figure(learning_curve_figure(rows, reach), path)
+
+
+def learning_curve_figure(rows: list[dict], reach: float) -> Figure:
     """Held-out mean error (all trials) after each move vs training trials, log scale (mm and
-    % reach)."""
+    % reach): one line per move, one point per evaluation row.
+
+    Args:
+        rows: evaluation rows with ``trial`` and ``mean_mm`` (one error per move, mm).
+        reach: the arm's reach (m), for the right axis in % of reach.
+    """
     trials = np.array([r["trial"] for r in rows])
     errors = np.array([r["mean_mm"] for r in rows])  # (evals, moves)
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -37,12 +53,20 @@ def learning_curve(rows: list[dict], reach: float, path: Path) -> Path:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     ax.set_title("Learning curve (held-out targets)")
-    return _save(fig, path)
+    return fig
 
 
 def error_histogram(result: Evaluation, path: Path) -> Path | None:
+    """Write :func:`error_histogram_figure` to ``path``; None (nothing written) when it has no
+    figure."""
+    fig = error_histogram_figure(result)
+    return None if fig is None else save_figure(fig, path)
+
+
+def error_histogram_figure(result: Evaluation) -> Figure | None:
     """Distribution of the distance to the target after each move over all trials (a trial that
-    stopped counts where it stopped; log-spaced bins, mm); None when all errors are 0."""
+    stopped counts where it stopped; log-spaced bins, mm); None when fewer than two errors are
+    above 0 (no log-spaced bins)."""
     mm = result.distances * 1e3
     positive = mm[mm > 0]
     if positive.size < 2:
@@ -58,13 +82,27 @@ def error_histogram(result: Evaluation, path: Path) -> Path | None:
     ax.legend()
     stopped = int((~result.complete).sum())
     ax.set_title(f"Errors on {len(mm)} held-out targets ({stopped} stopped early, counted)")
-    return _save(fig, path)
+    return fig
 
 
 def lattice_in_image(
     w: np.ndarray, lattice: tuple[int, ...], image: np.ndarray, path: Path, camera: int = 0
 ) -> Path:
-    """The neurons' w_r in one camera's image with lattice edges, as in Kohonen's Fig. 3b."""
+    """Write :func:`lattice_in_image_figure` to ``path``."""
+    return save_figure(lattice_in_image_figure(w, lattice, image, camera), path)
+
+
+def lattice_in_image_figure(
+    w: np.ndarray, lattice: tuple[int, ...], image: np.ndarray, camera: int = 0
+) -> Figure:
+    """The neurons' w_r in one camera's image with lattice edges, as in Kohonen's Fig. 3b.
+
+    Args:
+        w: the neurons' camera coordinates (neurons, 4) pixels, C order over ``lattice``.
+        lattice: the lattice shape.
+        image: the camera image (height, width, 3) drawn beneath.
+        camera: 0 left (columns 0, 1 of ``w``), 1 right (columns 2, 3).
+    """
     grid = w.reshape(*lattice, -1)[..., 2 * camera : 2 * camera + 2]  # (*lattice, 2) pixels
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     ax.imshow(image, alpha=0.55)
@@ -79,10 +117,15 @@ def lattice_in_image(
     ax.set_title(
         f"Lattice {'x'.join(map(str, lattice))} in camera {'left' if camera == 0 else 'right'}"
     )
-    return _save(fig, path)
+    return fig
 
 
 def reached_3d(result: Evaluation, path: Path) -> Path:
+    """Write :func:`reached_3d_figure` to ``path``."""
+    return save_figure(reached_3d_figure(result), path)
+
+
+def reached_3d_figure(result: Evaluation) -> Figure:
     """Targets and the positions where the arm ended (after the last move, or where the trial
     stopped), in 3-D (m)."""
     fig = plt.figure(figsize=(6.4, 5.2))
@@ -99,10 +142,15 @@ def reached_3d(result: Evaluation, path: Path) -> Path:
     ax.set_zlabel("z [m]")
     ax.legend()
     ax.set_title("Targets and reached positions")
-    return _save(fig, path)
+    return fig
 
 
 def error_map(result: Evaluation, path: Path, move: int = 0) -> Path:
+    """Write :func:`error_map_figure` to ``path``."""
+    return save_figure(error_map_figure(result, move), path)
+
+
+def error_map_figure(result: Evaluation, move: int = 0) -> Figure:
     """Error after ``move`` at each target position, three projections (colour = mm, log); every
     trial is drawn, those that stopped before ``move`` (error where they stopped) as crosses."""
     mm = np.maximum(result.distances[:, move] * 1e3, 1e-3)  # log colour scale: 1 µm floor
@@ -120,12 +168,16 @@ def error_map(result: Evaluation, path: Path, move: int = 0) -> Path:
         ax.set_title(name)
         ax.set_aspect("equal", adjustable="datalim")
     fig.colorbar(sc, ax=axes, label=f"error after {_move_name(move)} [mm] (x: stopped earlier)")
-    return _save(fig, path)
+    return fig
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig: Figure, path: Path, dpi: int = 120, bbox_inches: str | None = "tight") -> Path:
+    """Write ``fig`` as an image at ``path`` (folders made as needed), close it, return the path.
+
+    ``bbox_inches="tight"`` crops the image to the drawn content; None keeps the figure's size.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
+    fig.savefig(path, dpi=dpi, bbox_inches=bbox_inches)
     plt.close(fig)
     return path

@@ -27,8 +27,8 @@ from learners.baselines.jacobian_ik import JacobianIK
 from learners.som.controller import VisuomotorSOM
 from learners.som.schedules import Continual
 
-#: The named changes of the issue: camera moved 5 cm and turned 3°, focal length +5 %, tool 5 cm
-#: longer, base moved 5 cm; "none" for the no-change control.
+#: The named changes a study can apply: camera moved 5 cm and turned 3°, focal length +5 %, tool
+#: 5 cm longer, base moved 5 cm; "none" for the no-change control.
 CHANGES: dict[str, dict[str, Any]] = {
     "camera": {"camera_shift": [0.05, 0.0, 0.0], "camera_turn": [0.0, 0.0523599, 0.0]},
     "zoom": {"zoom": 1.05},

@@ -12,7 +12,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
+from envs.harness.plots import save_figure
 from envs.harness.trials import Trial, run_trial
 from envs.harness.video import VideoWriter, annotate
 
@@ -31,8 +33,21 @@ STYLES = {
 
 
 def curves_figure(pre: list[dict], results: list[dict[str, Any]], title: str, path: Path) -> Path:
+    """Write :func:`adaptation_curves` to ``path``."""
+    return save_figure(adaptation_curves(pre, results, title), path, dpi=110)
+
+
+def adaptation_curves(pre: list[dict], results: list[dict[str, Any]], title: str) -> Figure:
     """One panel per change: held-out fine-2 error (mm) against all trials, the pre-training
-    curve up to the change and every controller after it."""
+    curve up to the change, every learning controller's curve after it, and the level of every
+    controller that does not learn.
+
+    Args:
+        pre: evaluation rows (``trial``, ``mean_mm``) of the training before the change.
+        results: one study result per change (``change``, ``config``, ``curves``, ``before``,
+            ``after``), as :mod:`envs.studies.adaptation` returns them.
+        title: the figure's title.
+    """
     fig, axes = plt.subplots(1, len(results), figsize=(4.2 * len(results), 3.8), sharey=True)
     axes = np.atleast_1d(axes)
     t0 = pre[-1]["trial"]
@@ -62,11 +77,7 @@ def curves_figure(pre: list[dict], results: list[dict[str, Any]], title: str, pa
     axes[0].set_ylabel("held-out mean distance after fine move 2 [mm]")
     axes[-1].legend(fontsize=7, loc="upper right")
     fig.suptitle(title, fontsize=10)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return fig
 
 
 def phases_video(

@@ -10,7 +10,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
+from envs.harness.plots import save_figure
 from envs.studies.rl_comparison import THRESHOLDS, Curve, steps_to_reach
 
 LABELS = {"map": "visuomotor map", "sac_her": "SAC + HER", "sac": "SAC", "ppo": "PPO"}
@@ -73,8 +75,14 @@ def report(folder: Path, targets: int) -> str:
 
 
 def plot(curves: list[Curve], title: str, path: Path) -> Path:
-    """Mean final distance vs env steps, log-log; the line is the mean over seeds, the band the
-    range of the seeds."""
+    """Write :func:`figure` to ``path``."""
+    return save_figure(figure(curves, title), path, bbox_inches=None)
+
+
+def figure(curves: list[Curve], title: str) -> Figure:
+    """Mean final distance vs env steps, log-log: one line per method (the mean over its seeds,
+    one point per checkpoint), the band the range of the seeds, and a dotted line per
+    threshold."""
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for method, runs in group(curves).items():
         steps = np.mean([c.steps for c in runs], axis=0)
@@ -91,8 +99,5 @@ def plot(curves: list[Curve], title: str, path: Path) -> Path:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     ax.set_title(title)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return fig

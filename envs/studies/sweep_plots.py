@@ -16,8 +16,9 @@ import matplotlib.ticker
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
-from envs.harness.plots import MOVE_NAMES
+from envs.harness.plots import MOVE_NAMES, save_figure
 from models.analyses.brause_linear_error import PAPER_B, PAPER_C, fit_power_law
 from models.analyses.brause_optimal_resolution import PUBLISHED
 
@@ -60,6 +61,11 @@ def fit_by_group(rows: list[dict[str, Any]], move: int) -> dict[str, dict[str, A
 
 
 def error_vs_neurons(rows: list[dict[str, Any]], path: Path) -> Path:
+    """Write :func:`error_vs_neurons_figure` to ``path``."""
+    return save_figure(error_vs_neurons_figure(rows), path, dpi=110, bbox_inches=None)
+
+
+def error_vs_neurons_figure(rows: list[dict[str, Any]]) -> Figure:
     """One panel per move: mean error (mm, all held-out trials, mean over seeds) against
     neurons per axis n = N^(1/3), log-log, with fitted slopes, Brause's e^LA(n) (rad, at his
     point P; right axis) for the slope, and his optimal resolution (n, e^MAX in mm)."""
@@ -93,7 +99,4 @@ def error_vs_neurons(rows: list[dict[str, Any]], path: Path) -> Path:
         ax.legend(handles=handles, loc="lower left", fontsize=6)
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
