@@ -104,13 +104,17 @@ def test_checkpoints_keep_their_image_size_old_and_new(tmp_path):
     assert (Trainer.stored_config(out).width, Trainer.stored_config(out).height) == (160, 120)
     som = VisuomotorSOM.load(path)
     other = gym.make("RiacsReach-v0", sensing="project", control="kinematic")  # 320x240
-    with pytest.raises(CheckpointError, match="image_size"):
+    with pytest.raises(CheckpointError, match="width=160, height=120"):
         check_map_fits(path, som, other)
-    # A checkpoint written before width/height: its config holds image_size = [height, width].
+    # A checkpoint written before width/height: its config and identity hold image_size =
+    # [height, width].
     run, sim_state = read_unit(path)
-    config = dict(run["config"])
+    config, recorded = dict(run["config"]), dict(run["identity"])
     config["image_size"] = [config.pop("height"), config.pop("width")]
-    write_unit(path, som, {**run, "config": config}, sim_state)
+    recorded["image_size"] = [recorded.pop("height"), recorded.pop("width")]
+    write_unit(path, som, {**run, "config": config, "identity": recorded}, sim_state)
+    with pytest.raises(CheckpointError, match="width=160, height=120"):
+        check_map_fits(path, som, other)
     old = Trainer.stored_config(out)
     assert (old.width, old.height) == (160, 120)
     resumed = Trainer.resume(out)

@@ -21,6 +21,7 @@ import numpy as np
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
 from envs import StereoRig
 from envs.cli import common as cli
+from envs.sizes import format_lattice
 from learners.baselines.analytic_ik import AnalyticIK
 from learners.baselines.jacobian_ik import JacobianIK
 from learners.som.controller import VisuomotorSOM
@@ -94,7 +95,7 @@ def bench_robot(name: str, args: argparse.Namespace) -> None:
     }
     arm = controllers["AnalyticIK"].arm
     som = make_som(arm.lower, arm.upper, U)
-    controllers["SOM " + "×".join(map(str, som.lattice))] = som
+    controllers["SOM " + format_lattice(som.lattice)] = som
     rows = {}
     for label, c in controllers.items():
         rows[label] = (

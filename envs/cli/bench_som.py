@@ -161,9 +161,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--batch", type=cli.positive_int, default=10_000, help="targets per act_batch call"
     )
-    parser.add_argument("--lattice", type=cli.positive_int, nargs="+", default=[12, 7, 4])
+    parser.add_argument("--lattice", type=cli.lattice, default="12x7x4")
     parser.add_argument(
-        "--big", type=cli.positive_int, nargs="*", default=[40, 40, 40], help="none: skip"
+        "--big", type=cli.lattice_or_none, default="40x40x40", help="none: skip (default: 40x40x40)"
     )
     parser.add_argument(
         "--big-trials", type=cli.positive_int, default=2000, help="t_max of the big lattice"
@@ -171,7 +171,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
     parser.add_argument("--out", type=Path, default=Path("runs/bench_som"))
     args = parser.parse_args(argv)
-    lattice, n = tuple(args.lattice), math.prod(args.lattice)
+    lattice, n = args.lattice, math.prod(args.lattice)
     inputs = _inputs(np.random.default_rng(args.seed), args.trials)
     result: dict = {"neurons": n, "trials": args.trials, "minisom_shape": minisom_shape(n)}
     rows = []
@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> dict:
             ratio, spread = f"{figures['ratio']:.2f}", f"{low:.2f}-{high:.2f}"
         print(f"{what:<40} {rate:>10,.0f} {ratio:>29} {spread:>12}")
     if args.big:
-        big = tuple(args.big)
+        big = args.big
         for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):
             figures = big_lattice(big, args.big_trials, args.seed, kernel)
             result[f"big_{kernel}"] = {"lattice": list(big), **figures}

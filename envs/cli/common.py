@@ -94,6 +94,10 @@ def _text_type(parse: Callable[[str], T], name: str) -> Callable[[str], T]:
 image_size = _text_type(sizes.parse_size, "WIDTHxHEIGHT")
 #: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`).
 lattice = _text_type(sizes.parse_lattice, "lattice")
+#: ``--big 40x40x40`` or ``--big none``: a lattice or None.
+lattice_or_none = _text_type(
+    lambda text: None if text == "none" else sizes.parse_lattice(text), "lattice or none"
+)
 
 
 def check_image_size(env_id: str, size: tuple[int, int]) -> None:

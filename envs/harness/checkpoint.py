@@ -26,17 +26,18 @@ _RUN, _SIM = "run", "sim_state"
 #: mj_step reads, so that a restored simulation continues bit for bit.
 SIM_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 #: What a checkpoint is for; a map is only meaningful on the env it was trained on.
-IDENTITY_KEYS = ("robot", "joints", "sensing", "image_size", "lattice")
+IDENTITY_KEYS = ("robot", "joints", "sensing", "width", "height", "lattice")
 
 
 def identity(env: Any, lattice: tuple[int, ...]) -> dict[str, Any]:
-    """Robot, joints, sensing, image size [height, width] (px) and lattice of a map on ``env``."""
+    """Robot, joints, sensing, image width and height (px) and lattice of a map on ``env``."""
     base = env.unwrapped
     return {
         "robot": base.robot,
         "joints": int(base.joints),
         "sensing": base.sensing,
-        "image_size": [int(base.image_height), int(base.image_width)],
+        "width": int(base.image_width),
+        "height": int(base.image_height),
         "lattice": [int(n) for n in lattice],
     }
 
@@ -89,7 +90,12 @@ def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
 def read_identity(path: str | os.PathLike) -> dict[str, Any] | None:
     """The identity recorded in a unit, or None for a plain map file."""
     _, arrays = load_npz(path, KIND, FORMAT_VERSION)
-    return read_unit(path)[0]["identity"] if _RUN in arrays else None
+    if _RUN not in arrays:
+        return None
+    recorded = dict(read_unit(path)[0]["identity"])
+    if "image_size" in recorded:  # written before sizes were width and height: [height, width]
+        recorded["height"], recorded["width"] = recorded.pop("image_size")
+    return recorded
 
 
 def check_identity(
@@ -115,7 +121,7 @@ def check_map_fits(path: str | os.PathLike, som: VisuomotorSOM, env: Any) -> Non
     base = env.unwrapped
     recorded = read_identity(path)
     if recorded is not None:
-        keys = ("robot", "joints", "image_size")
+        keys = ("robot", "joints", "width", "height")
         check_identity(path, recorded, identity(env, som.lattice), keys)
     lower, upper = base.joint_lower, base.joint_upper
     if som.lower.shape != lower.shape or not (

@@ -20,6 +20,7 @@ from envs.harness.checkpoint import (
     check_map_fits,
     get_sim_state,
     identity,
+    read_identity,
     read_unit,
     set_sim_state,
     write_unit,
@@ -203,7 +204,7 @@ class Trainer:
                 config = replace(config, trials=trials)
             trainer._build(config, folder)
             wanted = identity(trainer.env, config.lattice)
-            check_identity(path, run["identity"], wanted, tuple(wanted))
+            check_identity(path, read_identity(path), wanted, tuple(wanted))
             trainer.som = VisuomotorSOM.load(path)
             check_map_fits(path, trainer.som, trainer.env)
             lattice = {"lattice": list(trainer.som.lattice)}

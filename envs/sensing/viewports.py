@@ -26,9 +26,8 @@ from envs.sensing.rendering import (
 
 #: Slices and stacks of the built-in meshes (spheres, capsules, cylinders): 10° facets keep a
 #: sphere's outline within 1 - cos 5° = 0.4 % of its radius of a circle. MuJoCo's default
-#: 28 × 16 (up to 1.9 %) misplaces an 82 %-hidden marker by 0.52 px (tests/test_occlusion.py);
-#: 64 × 64 measured no more accurate (scripts/sensing_accuracy.py) and draws a window 3-4 times
-#: slower, since the robot's cylinders and capsules get as many triangles.
+#: 28 × 16 (up to 1.9 %) misplaces a mostly hidden marker (tests/test_occlusion.py); finer
+#: meshes cost drawing time on every cylinder and capsule of the robot (docs/decisions.md).
 SPHERE_SLICES = 36
 SPHERE_STACKS = 18
 #: mjtGeom values of the capsule and the cylinder (bounded by capsules, see _bounding_capsules).
