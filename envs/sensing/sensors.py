@@ -16,16 +16,13 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from envs.sensing.foveated import FoveatedSensing
 from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
 from envs.sensing.stereo import StereoRig
-
-if TYPE_CHECKING:
-    from envs.scene import ArmScene
 
 Sighting = tuple[np.ndarray, np.ndarray]  # pixels (4,) px, visible (2,) bool
 
@@ -120,7 +117,17 @@ class FoveatedSensor(Sensor):
 SENSING_MODES = ("render", "project", "foveated")
 
 
-def make_sensor(mode: str, scene: ArmScene) -> Sensor:
+class SensedScene(Protocol):
+    """What a sensor needs of a scene (``envs.scene.ArmScene`` has it)."""
+
+    stereo: StereoRig
+    sensed_site_id: int
+    marker_radius: float
+    target_radius: float
+    fovea: FoveatedSensing
+
+
+def make_sensor(mode: str, scene: SensedScene) -> Sensor:
     """The sensor of ``mode`` (one of SENSING_MODES) for ``scene``."""
     if mode == "project":
         return ProjectSensor(scene.stereo, scene.sensed_site_id)
