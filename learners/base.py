@@ -12,6 +12,9 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+#: Shorthand of the arrays in signatures (shapes are in the docstrings).
+Array = np.ndarray
+
 #: The trial protocols a controller may follow (``Controller.protocol``): the loop of Ritter,
 #: Martinetz & Schulten, where a fine move corrects from what was sensed and a trial stops when
 #: a marker is not seen, or Brause's (§3), whose fine move does not use what was sensed.
@@ -51,14 +54,7 @@ class Learner(Controller):
     """A controller that learns from its own trials."""
 
     @abstractmethod
-    def learn(
-        self,
-        u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
-    ) -> bool:
+    def learn(self, u: Array, theta0: Array, v0: Array, theta1: Array, v1: Array) -> bool:
         """One trial: target u, coarse command θ0 -> sensed v0, fine command θ1 -> sensed v1.
         Returns True if it learned, False if the trial was skipped (e.g. a marker not seen)."""
 

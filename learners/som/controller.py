@@ -85,7 +85,7 @@ from typing import Any
 
 import numpy as np
 
-from learners.base import Learner, check_pixels
+from learners.base import Array, Learner, check_pixels
 from learners.guards import InputBox, check_finite
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.som import kernels
@@ -531,14 +531,7 @@ class VisuomotorSOM(CompiledPath, Learner):
         return self._protocol.coarse_batch(self, U, s)
 
     # ----------------------------------------------------------------------------- learning
-    def learn(
-        self,
-        u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
-    ) -> bool:
+    def learn(self, u: Array, theta0: Array, v0: Array, theta1: Array, v1: Array) -> bool:
         """One training trial: target u, coarse command θ0 -> sensed v0, fine θ1 -> sensed v1.
 
         Returns:
@@ -556,7 +549,7 @@ class VisuomotorSOM(CompiledPath, Learner):
         fast_ok = u.shape == (D,) and theta0.shape == theta1.shape == (J,)
         shapes_ok = fast_ok and v0.shape == (D,) == v1.shape
         if shapes_ok:
-            learned = self._protocol.learn_compiled(self, u, theta0, v0, theta1, v1)
+            learned = self._protocol.learn_compiled(self, (u, theta0, v0, theta1, v1))
             if learned is not None:
                 return learned  # else no compiled path, or an input is wrong: see below
             self._check_trial(u, theta0, v0, theta1, v1)
@@ -587,7 +580,7 @@ class VisuomotorSOM(CompiledPath, Learner):
         else:
             s = self._winner(u)
         self._version += 1
-        self._protocol.learn(self, s, u, theta0, v0, theta1, v1, dv / dv2)
+        self._protocol.learn(self, s, (u, theta0, v0, theta1, v1), dv / dv2)
         self.t += 1
         return True
 

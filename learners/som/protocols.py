@@ -25,6 +25,8 @@ from learners.som.schedules import harmonic
 if TYPE_CHECKING:
     from learners.som.controller import VisuomotorSOM
 
+#: One trial: target u, coarse command θ0, sensed v0, fine command θ1, sensed v1.
+Trial = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 _FINE_FIRST = "a fine move act(u, v) needs a coarse act(u) first (after reset)"
 
 
@@ -46,33 +48,15 @@ class Protocol:
         """Coarse commands (M, J) for targets U (M, D) with winners s (M,)."""
         raise NotImplementedError
 
-    def learn(
-        self,
-        som: VisuomotorSOM,
-        s: int,
-        u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
-        dv_n: np.ndarray,
-    ) -> None:
-        """Update the map from a checked, usable trial whose winner is s.
+    def learn(self, som: VisuomotorSOM, s: int, trial: Trial, dv_n: np.ndarray) -> None:
+        """Update the map from a checked, usable trial (u, θ0, v0, θ1, v1) whose winner is s.
 
         Args:
             dv_n: (v1 − v0) / |v1 − v0|², (D,).
         """
         raise NotImplementedError
 
-    def learn_compiled(
-        self,
-        som: VisuomotorSOM,
-        u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
-    ) -> bool | None:
+    def learn_compiled(self, som: VisuomotorSOM, trial: Trial) -> bool | None:
         """A whole ``learn`` in one kernel call: True/False as ``learn`` returns, or None to
         take the reference path (no compiled path, or an input the kernel refused)."""
         return None
@@ -125,17 +109,8 @@ class MRS(Protocol):
         GA = (G @ som._A.reshape(N, J * D)).reshape(M, J, D)  # Ā per target
         return som._clip(G @ offset + np.einsum("mjd,md->mj", GA, U))
 
-    def learn(
-        self,
-        som: VisuomotorSOM,
-        s: int,
-        u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
-        dv_n: np.ndarray,
-    ) -> None:
+    def learn(self, som: VisuomotorSOM, s: int, trial: Trial, dv_n: np.ndarray) -> None:
+        u, theta0, v0, theta1, v1 = trial
         eps, sigma, eps_out, sigma_out, _ = som.params()
         a_s = som._A[s]  # (J, D), read before any update
         if som.rule == "mrs":
@@ -183,18 +158,10 @@ class CompiledMRS(MRS):
         command = som._act_compiled(u, v, explore)
         return super().fine(som, u, v, explore) if command is None else command
 
-    def learn_compiled(
-        self,
-        som: VisuomotorSOM,
-        u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
-    ) -> bool | None:
+    def learn_compiled(self, som: VisuomotorSOM, trial: Trial) -> bool | None:
         if som.monitor is not None:  # it observes the trial before the kernel checks it
-            som._check_trial(u, theta0, v0, theta1, v1)
-        return som._learn_compiled(u, theta0, v0, theta1, v1)
+            som._check_trial(*trial)
+        return som._learn_compiled(*trial)
 
 
 class Brause(Protocol):
@@ -223,20 +190,10 @@ class Brause(Protocol):
     def coarse_batch(self, som: VisuomotorSOM, U: np.ndarray, s: np.ndarray) -> np.ndarray:
         return som._clip(som._th[s])
 
-    def learn(
-        self,
-        som: VisuomotorSOM,
-        s: int,
-        u: np.ndarray,
-        theta0: np.ndarray,
-        v0: np.ndarray,
-        theta1: np.ndarray,
-        v1: np.ndarray,
-        dv_n: np.ndarray,
-    ) -> None:
+    def learn(self, som: VisuomotorSOM, s: int, trial: Trial, dv_n: np.ndarray) -> None:
         """(3.9), (3.10) in the forms of the commands sent (x = u, x_I = v0, x_F = v1), then
         one γ and the step neighbourhood (3.2) for w, Θ and A."""
-        x, x_i, x_f = u, v0, v1
+        x, theta0, x_i, theta1, x_f = trial
         a_c, w_c = som._A[s], som._w[s].copy()  # before any update
         theta_star = theta1 + a_c @ (w_c - x_f)  # (3.9), (J,)
         a_star = a_c + np.multiply.outer((theta1 - theta0) - a_c @ (x_f - x_i), dv_n)  # (3.10)
