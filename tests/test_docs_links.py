@@ -4,7 +4,8 @@ Checked in README.md and every page under docs/: each relative link or image res
 of the checkout, each ``#anchor`` to a heading (slugged as MkDocs' ``toc`` does) or an ``id`` of
 the target page, each ``scripts/<name>.py`` named in code to a script, each ``make <target>``
 to a target of the Makefile and each ``docs/...`` data file named in a command to a file. The
-README stays a front page of at most ``README_MAX_LINES`` lines.
+README stays a front page of at most ``README_MAX_LINES`` lines. The argument tables of the env
+pages give the defaults of the envs' constructors (the class docstrings are the source).
 
 The environments' GIFs (``docs/assets/<EnvId>.gif``, one per page under docs/envs/) are made by
 a separate job: while docs/assets/ holds no GIF at all they are reported as pending (skipped);
@@ -13,6 +14,9 @@ once any GIF is there, every env page's GIF must exist.
 
 from __future__ import annotations
 
+import ast
+import importlib
+import inspect
 import os
 import re
 import unicodedata
@@ -223,3 +227,32 @@ def test_the_checks_find_broken_links_and_commands(tmp_path: Path) -> None:
         "docs/sweeps/none.json: no such file",
     ]
     assert make_targets(tmp_path / "Makefile") == {"demo"}
+
+
+def documented_arguments(page: Path) -> dict[str, object]:
+    """The argument table of an env page: name -> default, read as a Python literal (a default
+    cell may add words after the value, e.g. ``"riacs"`` (set by the id))."""
+    text = page.read_text(encoding="utf-8").split("## Arguments", 1)[1].split("\n## ", 1)[0]
+    table = {}
+    for name, default in re.findall(r"^\| `(\w+)` \| ([^|]+?) \|", text, re.M):
+        value = default.replace("`", "").split(" (")[0].strip()
+        table[name] = ast.literal_eval(value)
+    return table
+
+
+@pytest.mark.parametrize("env_id", ["RiacsReach-v0", "PumaReach-v0", "PumaTrack-v0"])
+def test_env_pages_give_the_constructors_defaults(env_id: str) -> None:
+    import gymnasium as gym
+
+    import envs  # noqa: F401 - registers the ids
+
+    spec = gym.spec(env_id)
+    module, name = spec.entry_point.split(":")
+    cls = getattr(importlib.import_module(module), name)
+    signature = inspect.signature(cls.__init__)
+    actual = {
+        p.name: spec.kwargs.get(p.name, p.default)
+        for p in signature.parameters.values()
+        if p.name != "self"
+    }
+    assert documented_arguments(ROOT / "docs" / "envs" / f"{env_id}.md") == actual
