@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 # Headless rendering: EGL (Mesa llvmpipe without a GPU) unless the caller chose a back-end.
 export MUJOCO_GL ?= egl
 
-.PHONY: demo test test-rl lint bench soak clean test-sweep sweep-demo
+.PHONY: demo test test-rl lint bench soak clean test-sweep sweep-demo docs
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -33,6 +33,15 @@ $(VENV)/.installed-rl: $(VENV)/.installed
 
 test-rl: $(VENV)/.installed-rl
 	$(BIN)/python -m pytest -q -rs tests/test_rl.py
+
+# The documentation site (extra "docs"): mkdocs.yml, pages in docs/, built into site/; strict:
+# a broken link, reference or docstring fails the build.
+$(VENV)/.installed-docs: $(VENV)/.installed
+	$(BIN)/python -m pip install --quiet -e ".[dev,docs]"
+	touch $@
+
+docs: $(VENV)/.installed-docs
+	$(BIN)/mkdocs build --strict --site-dir site
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .

@@ -1,6 +1,6 @@
-"""NATEnet: node allocation and topographical encoding (the NATEnet paper in the README's
-sources), prestructured for differential inverse kinematics, and the path-tracking controller
-that uses it.
+"""NATEnet: node allocation and topographical encoding (the NATEnet paper in the sources,
+docs/reproducing.md), prestructured for differential inverse kinematics, and the path-tracking
+controller that uses it.
 
 **Network.** Node i has a centre x_i in input space (joint angles, rad), a width σ_i (rad) and an
 output matrix Y_i of shape ``output_shape`` (p, q). Its activity is a_i(x) = exp(-r_i²/σ_i²),

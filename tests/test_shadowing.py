@@ -1,8 +1,8 @@
-"""The README's troubleshooting entry for a foreign ``envs`` package is right: beside a script
-that has its own ``envs/`` package, ``gym.make`` does not find this project's environments, the
-README's check prints the other package's path, and ``python -P`` finds this project's again; and
-this project's modules imported under a foreign ``envs`` stop with a one-line ImportError naming
-it."""
+"""The troubleshooting entry (docs/troubleshooting.md) for a foreign ``envs`` package is right:
+beside a script that has its own ``envs/`` package, ``gym.make`` does not find this project's
+environments, the entry's check prints the other package's path, and ``python -P`` finds this
+project's again; and this project's modules imported under a foreign ``envs`` stop with a
+one-line ImportError naming it."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import envs
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+TROUBLESHOOTING = Path(__file__).resolve().parents[1] / "docs" / "troubleshooting.md"
 SUBPROCESS_TIMEOUT = 120  # s
 SCRIPT = """
 import gymnasium as gym
@@ -40,8 +40,8 @@ def _run(args: list[str], cwd: Path) -> list[str]:
 
 
 def _readme_check() -> list[str]:
-    """The command of the README's troubleshooting entry, as argv after ``python``."""
-    section = README.read_text().split("## Troubleshooting", 1)[1].split("\n## ", 1)[0]
+    """The command of the troubleshooting entry, as argv after ``python``."""
+    section = TROUBLESHOOTING.read_text().split("# Troubleshooting", 1)[1].split("\n## ", 1)[0]
     command = re.search(r'^ {4}python (-c "[^"]+")$', section, re.MULTILINE)
     assert command is not None, "the troubleshooting entry lost its check"
     return ["-c", command.group(1)[4:-1]]

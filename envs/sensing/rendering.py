@@ -58,7 +58,8 @@ def check_own_package() -> None:
     if where != ours:
         raise ImportError(
             f"the package 'envs' imported here is {where}, not this project's ({ours}): rename "
-            "that folder or move your script out of its folder (README: Troubleshooting)"
+            "that folder or move your script out of its folder "
+            "(Troubleshooting: docs/troubleshooting.md)"
         )
 
 
