@@ -75,7 +75,8 @@ def real_numbers(
         raise error(f"{name} must be {takes}, got {value!r} ({exc})") from None
     for item in items.flat:
         if isinstance(item, (bool, np.bool_)) or not isinstance(item, Real):
-            raise error(f"{name} must be {takes}, got {item!r} in {_shown(value)}")
+            where = "" if items.ndim == 0 else f" in {_shown(value)}"
+            raise error(f"{name} must be {takes}, got {item!r}{where}")
     try:
         return np.asarray(value, dtype=float)
     except (ValueError, TypeError, OverflowError) as exc:
