@@ -11,12 +11,15 @@ exact baselines use.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 import mujoco
 import numpy as np
 
+from envs import arguments
 from envs.sensing.stereo import CameraPair, PinholeCamera
 from models.rotations import rotvec_to_matrix
 from models.workspace import Workspace
@@ -43,13 +46,33 @@ class PerturbationError(ValueError):
     """A change that cannot be applied (not finite, too large, or the workspace out of view)."""
 
 
-def _vectors(value, shape: tuple[int, ...], name: str, limit: float) -> np.ndarray:
-    a = np.broadcast_to(np.asarray(value, dtype=float), shape).copy()
+#: The accepted shapes of each array field: per camera (2, 3), or (3,) for both.
+CAMERA_SHAPES = ((2, 3), (3,))
+
+
+def _vectors(
+    value: Any, shapes: tuple[tuple[int, ...], ...], name: str, limit: float, unit: str
+) -> np.ndarray:
+    """``value`` checked (real numbers of an accepted shape, finite, each vector's norm at most
+    ``limit``) and broadcast to the first shape; PerturbationError naming ``name`` else."""
+    a = arguments.real_numbers(name, value, f"real numbers ({unit})", PerturbationError)
+    if a.shape not in shapes:
+        valid = " or ".join(map(str, shapes))
+        raise PerturbationError(f"{name} must have shape {valid} ({unit}), got shape {a.shape}")
+    a = np.broadcast_to(a, shapes[0]).copy()
     if not np.isfinite(a).all():
         raise PerturbationError(f"{name} must be finite, got {a.tolist()}")
     if np.linalg.norm(a, axis=-1).max() > limit:
         raise PerturbationError(f"{name} {a.tolist()} is larger than {limit}; pass a smaller one")
     return a
+
+
+def _number(value: Any, name: str, unit: str) -> float:
+    """One real number (a 0-d array counts), else PerturbationError naming ``name``."""
+    a = arguments.real_numbers(name, value, f"a real number ({unit})", PerturbationError)
+    if a.shape != ():
+        raise PerturbationError(f"{name} must be one number ({unit}), got shape {a.shape}")
+    return float(a)
 
 
 @dataclass(frozen=True, eq=False)  # arrays: compare fields explicitly
@@ -74,26 +97,37 @@ class Perturbation:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "camera_shift", _vectors(self.camera_shift, (2, 3), "camera_shift", MAX_OFFSET))
-        set_(self, "camera_turn", _vectors(self.camera_turn, (2, 3), "camera_turn", MAX_TURN))
-        set_(self, "base_shift", _vectors(self.base_shift, (3,), "base_shift", MAX_OFFSET))
-        set_(self, "tool", float(_vectors(self.tool, (1,), "tool", MAX_OFFSET)[0]))
-        zoom = float(self.zoom)
+        shift = _vectors(self.camera_shift, CAMERA_SHAPES, "camera_shift", MAX_OFFSET, "m")
+        set_(self, "camera_shift", shift)
+        turn = _vectors(self.camera_turn, CAMERA_SHAPES, "camera_turn", MAX_TURN, "rad")
+        set_(self, "camera_turn", turn)
+        set_(self, "base_shift", _vectors(self.base_shift, ((3,),), "base_shift", MAX_OFFSET, "m"))
+        tool = _number(self.tool, "tool", "m")
+        if not math.isfinite(tool) or abs(tool) > MAX_OFFSET:
+            raise PerturbationError(f"tool must be in [-{MAX_OFFSET}, {MAX_OFFSET}] m, got {tool}")
+        set_(self, "tool", tool)
+        zoom = _number(self.zoom, "zoom", "focal length factor")
         if not MIN_ZOOM <= zoom <= MAX_ZOOM:  # also refuses NaN
             raise PerturbationError(f"zoom must be in [{MIN_ZOOM}, {MAX_ZOOM}], got {self.zoom}")
         set_(self, "zoom", zoom)
 
     @classmethod
-    def of(cls, change: Perturbation | Mapping | None) -> Perturbation:
-        """A Perturbation from itself, a mapping of its fields, or None (the nominal scene)."""
+    def of(cls, change: Any) -> Perturbation:
+        """A Perturbation from itself, a mapping of its fields, or None (the nominal scene);
+        PerturbationError naming what is wrong for anything else."""
         if isinstance(change, Perturbation):
             return change
-        change = dict(change or {})
-        unknown = set(change) - {f.name for f in fields(cls)}
-        if unknown:
-            valid = ", ".join(f.name for f in fields(cls))
+        if change is not None and not isinstance(change, Mapping):
             raise PerturbationError(
-                f"unknown perturbation fields {sorted(unknown)}; valid: {valid}"
+                f"a change must be a Perturbation, a dict of its fields ({', '.join(FIELDS)}) "
+                f"or None, got {change!r}"
+            )
+        change = dict(change or {})
+        unknown = set(change) - set(FIELDS)
+        if unknown:
+            raise PerturbationError(
+                f"unknown perturbation fields {sorted(unknown, key=repr)}; "
+                f"valid: {', '.join(FIELDS)}"
             )
         return cls(**change)
 
@@ -109,7 +143,21 @@ class Perturbation:
     ) -> Perturbation:
         """A random change of the given sizes: each camera moved ``camera_shift`` m in a random
         direction and turned ``camera_turn`` rad about a random axis, the focal length changed by
-        ±``zoom`` (a fraction), the tool ±``tool`` m, the base moved ``base_shift`` m."""
+        ±``zoom`` (a fraction), the tool ±``tool`` m, the base moved ``base_shift`` m.
+
+        Raises:
+            PerturbationError: a size that is not a number >= 0 or exceeds its largest change
+                (:data:`RANDOM_LIMITS`), before any number is drawn from ``rng``.
+        """
+        random_sizes(
+            {
+                "camera_shift": camera_shift,
+                "camera_turn": camera_turn,
+                "zoom": zoom,
+                "tool": tool,
+                "base_shift": base_shift,
+            }
+        )
 
         def directions(n: int) -> np.ndarray:
             d = rng.normal(size=(n, 3))
@@ -139,6 +187,43 @@ class Perturbation:
         if np.any(self.base_shift):
             parts.append(f"base moved {np.linalg.norm(self.base_shift) * 1e3:.0f} mm")
         return ", ".join(parts) or "nominal scene"
+
+
+FIELDS = tuple(f.name for f in fields(Perturbation))
+#: Largest size of each random change and its unit: the field's limit (zoom: the factor
+#: 1 ± size stays in [MIN_ZOOM, MAX_ZOOM]).
+RANDOM_LIMITS = {
+    "camera_shift": (MAX_OFFSET, "m"),
+    "camera_turn": (MAX_TURN, "rad"),
+    "zoom": (min(1.0 - MIN_ZOOM, MAX_ZOOM - 1.0), "fraction of the focal length"),
+    "tool": (MAX_OFFSET, "m"),
+    "base_shift": (MAX_OFFSET, "m"),
+}
+
+
+def random_sizes(sizes: Any) -> dict[str, float]:
+    """Sizes for :meth:`Perturbation.random` from a mapping of field names to numbers in
+    [0, :data:`RANDOM_LIMITS`]; PerturbationError naming the field and what it takes else."""
+    if not isinstance(sizes, Mapping):
+        raise PerturbationError(
+            f"random sizes must be a dict of field names to sizes ({', '.join(FIELDS)}), "
+            f"got {sizes!r}"
+        )
+    unknown = set(sizes) - set(FIELDS)
+    if unknown:
+        raise PerturbationError(
+            f"unknown random sizes {sorted(unknown, key=repr)}; valid: {', '.join(FIELDS)}"
+        )
+    checked = {}
+    for name, value in sizes.items():
+        limit, unit = RANDOM_LIMITS[name]
+        size = _number(value, f"random size {name}", unit)
+        if not 0.0 <= size <= limit:  # also refuses NaN
+            raise PerturbationError(
+                f"random size {name} must be in [0, {limit}] ({unit}), got {value!r}"
+            )
+        checked[name] = size
+    return checked
 
 
 class SceneEditor:

@@ -11,7 +11,7 @@ import numpy as np
 
 from envs import arguments
 from envs.composite import CompositeView
-from envs.perturb import Perturbation, SceneEditor
+from envs.perturb import Perturbation, PerturbationError, SceneEditor, random_sizes
 from envs.reward import GoalPoints, reward_terms, seen_flags
 from envs.robots import ROBOTS
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
@@ -48,7 +48,10 @@ class ReachEnv(ArmScene):
     ``Box(joint_lower, joint_upper, (J,), float64)``: absolute command in radians for the
     controlled joints (J = 3, or 6 for ``PumaReach-v0`` with ``joints=6``). A command outside a
     joint's range is clipped into it and ``info["clipped"]`` is True. NaN or inf raises
-    ``ValueError`` naming the joint; a wrong shape raises ``ValueError`` with the expected shape.
+    ``ValueError`` naming the joint; a wrong shape raises ``ValueError`` with the expected shape;
+    bools, strings and complex numbers raise ``ValueError`` (integers are numbers: a float64
+    ``Box`` contains integer arrays). ``step`` before ``reset`` raises
+    ``gymnasium.error.ResetNeeded``, on the unwrapped env too.
 
     ## Observation space
     ``Dict`` in the Gymnasium-Robotics goal convention:
@@ -97,7 +100,8 @@ class ReachEnv(ArmScene):
     ``reset`` draws a target uniformly from the robot's workspace with ``self.np_random`` and moves
     the mocap body there. The arm returns to the keyframe ``home`` unless
     ``reset(options={"keep_arm": True})`` leaves it where the last move put it.
-    ``reset(options={"perturb": change})`` first applies :meth:`perturb`.
+    ``reset(options={"perturb": change})`` first applies :meth:`perturb` (a refused change
+    refuses the reset before it seeds ``np_random``).
 
     ## Changes of the scene
     ``perturb(change)`` moves, turns and zooms the cameras, moves the sensed point along the arm
@@ -220,9 +224,10 @@ class ReachEnv(ArmScene):
         options = arguments.reset_options(
             options, RESET_OPTIONS, "{'keep_arm': bool, 'perturb': Perturbation | dict | None}"
         )
+        change = self._checked(options["perturb"]) if "perturb" in options else None
         super().reset(seed=seed)
-        if "perturb" in options:
-            self.perturb(options["perturb"])
+        if change is not None:
+            self._apply(change)
         target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
         target = target + self.perturbation.base_shift
         if options.get("keep_arm", False):
@@ -241,6 +246,7 @@ class ReachEnv(ArmScene):
         return observation, info
 
     def step(self, action: np.ndarray):
+        self.require_reset()
         command, clipped = self._check_action(action)
         settle_time = self._move(command)
         self._sense_effector()
@@ -327,16 +333,36 @@ class ReachEnv(ArmScene):
         Returns:
             the change now in effect; the next reset senses a target in the changed scene.
         Raises:
-            PerturbationError: a change that is not finite, too large, or takes the workspace
-                out of view; nothing has changed then.
+            PerturbationError: a change or a size of the wrong type or shape, not finite, too
+                large, or taking the workspace out of view; nothing has changed then (the
+                model, the cameras, the simulation, and ``np_random``: it draws as if the call
+                had not been made).
         """
-        if random is not None:
-            if change is not None:
-                raise ValueError("pass either a change or random sizes, not both")
-            rng = self.np_random if seed is None else np.random.default_rng(seed)
-            change = Perturbation.random(rng, **random)
+        if random is None:
+            return self._apply(self._checked(change))
+        if change is not None:
+            raise ValueError("pass either a change or random sizes, not both")
+        sizes = random_sizes(random)
+        if seed is not None:
+            seed = arguments.seed("seed", seed)
+        rng = self.np_random if seed is None else np.random.default_rng(seed)
+        state = rng.bit_generator.state
+        try:
+            change = self._checked(Perturbation.random(rng, **sizes))
+        except PerturbationError:  # a refused change draws nothing
+            rng.bit_generator.state = state
+            raise
+        return self._apply(change)
+
+    def _checked(self, change: Any) -> Perturbation:
+        """``change`` as a Perturbation that keeps the workspace in view; PerturbationError
+        before anything changes else."""
         change = Perturbation.of(change)
         self._editor.check(change, self.spec_robot.workspace)
+        return change
+
+    def _apply(self, change: Perturbation) -> Perturbation:
+        """Write a checked change into the model and let the rig re-read its cameras."""
         self._editor.apply(change)
         mujoco.mj_forward(self.model, self.data)
         self.stereo.refresh(self.data)
@@ -367,7 +393,7 @@ class ReachEnv(ArmScene):
         """The command (J,) rad for the controlled joints, clipped into their ranges, and
         whether it was clipped; ValueError for a wrong shape or a value that is not finite."""
         real = isinstance(action, np.ndarray) and action.dtype.char in "fd"  # float32, float64
-        a = action if real else arguments.real_array("action", action)
+        a = action if real else arguments.real_numbers("action", action, "real numbers (rad)")
         if a.shape != (self.joints,):
             raise ValueError(
                 f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "

@@ -65,6 +65,21 @@ class ArmScene(gym.Env):
         mujoco.mj_forward(self.model, self.data)
         self.stereo = StereoRig(self.model, self.data, height, width)
         self._fovea: FoveatedSensing | None = None
+        self._was_reset = False  # step() needs an episode: reset() first
+
+    # -- episodes ------------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Seed ``np_random`` (Gymnasium's rule) and allow ``step``; the environments draw the
+        episode after this."""
+        super().reset(seed=seed)
+        self._was_reset = True
+
+    def require_reset(self) -> None:
+        """Raise ``gymnasium.error.ResetNeeded`` (what Gymnasium's ``OrderEnforcing`` wrapper
+        raises) if the env has not been reset yet: ``step`` has no episode to act in."""
+        if not self._was_reset:
+            raise gym.error.ResetNeeded("step() before reset(): call env.reset() first")
 
     # -- the controlled joints -----------------------------------------------------------------
 

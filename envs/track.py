@@ -53,7 +53,8 @@ class PumaTrackEnv(ArmScene):
     ## Action space
     ``Box(-MAX_JOINT_STEP, MAX_JOINT_STEP, (6,), float64)``: joint increments Δθ1..Δθ6 (rad),
     clipped to ±0.1 rad, and the result clipped to the joint ranges of ``models.puma560.DH``.
-    A wrong shape, NaN or inf raises ``ValueError``.
+    A wrong shape, NaN or inf raises ``ValueError``, and so do bools, strings and complex numbers
+    (integers are numbers); ``step`` before ``reset`` raises ``gymnasium.error.ResetNeeded``.
 
     ## Observation space (``Dict``, float64)
     | key | shape | meaning | unit |
@@ -202,9 +203,8 @@ class PumaTrackEnv(ArmScene):
         return self._obs(), self._info(visible)
 
     def step(self, action: np.ndarray):
-        if self.path is None:
-            raise RuntimeError("call reset() before step()")
-        action = arguments.real_array("action", action)
+        self.require_reset()
+        action = arguments.real_numbers("action", action, "real numbers (rad)")
         if action.shape != (6,) or not np.isfinite(action).all():
             raise ValueError(f"action must be 6 finite joint increments (rad), got {action!r}")
         delta = np.clip(action, -MAX_JOINT_STEP, MAX_JOINT_STEP)
