@@ -134,16 +134,17 @@ def truncate_metrics(path: Path, rows: int) -> None:
 
 
 def check_writable(folder: str | os.PathLike) -> Path:
-    """Create ``folder`` if needed and write (and remove) a one-byte file in it, so that a
-    read-only folder or a full disk is found before any work; returns the folder.
+    """Write (and remove) a one-byte file in ``folder``, or in its nearest existing ancestor
+    if it does not exist yet, so that a read-only folder or a full disk is found before any
+    work; nothing is left behind (a refused run creates no folder). Returns ``folder``.
 
     Raises:
-        OutputError: the folder cannot be created or written.
+        OutputError: that folder cannot be written.
     """
     folder = Path(folder)
+    existing = next(p for p in (folder, *folder.absolute().parents) if p.is_dir())
     with writing(folder, prefer_path=True):  # not the probe's name
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=folder)
+        fd, probe = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=existing)
         try:
             os.write(fd, b"\0")
             os.fsync(fd)
