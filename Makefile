@@ -8,10 +8,12 @@ export MUJOCO_GL ?= egl
 .PHONY: demo test test-rl lint bench soak clean test-sweep sweep-demo docs
 
 $(BIN)/python:
+	@echo "creating the virtual environment .venv and updating pip (under a minute)"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
+	@echo "installing visuomotor and its dependencies into .venv (about 2 minutes)"
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
 	touch $@
 
@@ -28,6 +30,7 @@ soak: $(VENV)/.installed
 
 # The rl extra (Stable-Baselines3 and torch's CPU build) and its tests.
 $(VENV)/.installed-rl: $(VENV)/.installed
+	@echo "installing the rl extra (Stable-Baselines3, torch CPU) into .venv (a few minutes)"
 	$(BIN)/python -m pip install --quiet -e ".[dev,rl]"
 	touch $@
 
@@ -49,6 +52,7 @@ lint: $(VENV)/.installed
 
 # Sweeps on Ray: the extra "sweep" in the same venv.
 $(VENV)/.sweep: $(VENV)/.installed
+	@echo "installing the sweep extra (Ray) into .venv (a few minutes)"
 	$(BIN)/python -m pip install --quiet -e ".[dev,sweep]"
 	touch $@
 

@@ -3,12 +3,14 @@ version, written atomically (temporary file in the same folder, then rename)."""
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
 import tempfile
 import zipfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -29,6 +31,48 @@ class CheckpointError(ValueError):
     """A file that is missing, damaged, or holds something other than what was asked for."""
 
 
+class OutputError(RuntimeError):
+    """A file could not be written where it was asked to go: the disk or quota is full, or the
+    folder is read-only or forbidden. The message names the path, the cause and what to do."""
+
+
+#: Why a write fails because of where it goes (not because of a bug), and what to do about it.
+_NO_SPACE = "free some space or write to another folder"
+_READ_ONLY = "make the folder writable or write to another folder"
+OUTPUT_ERRNOS: dict[int, str] = {
+    errno.ENOSPC: _NO_SPACE,
+    errno.EDQUOT: _NO_SPACE,
+    errno.EROFS: _READ_ONLY,
+    errno.EACCES: _READ_ONLY,
+}
+
+
+def output_error(
+    exc: OSError, path: str | os.PathLike, prefer_path: bool = False
+) -> OutputError | None:
+    """``exc`` as an :class:`OutputError`, or None if its errno is not one of
+    ``OUTPUT_ERRNOS``. It names the file ``exc`` names, else (or if ``prefer_path``) ``path``."""
+    advice = OUTPUT_ERRNOS.get(exc.errno or 0)
+    if advice is None:
+        return None
+    name = path if prefer_path or exc.filename is None else exc.filename
+    return OutputError(f"{name}: cannot write ({exc.strerror}); {advice}")
+
+
+@contextmanager
+def writing(path: str | os.PathLike, prefer_path: bool = False) -> Iterator[None]:
+    """Turn a failed write inside the block (no space, read-only, forbidden) into an
+    :class:`OutputError`; ``path`` and ``prefer_path`` choose the name as in
+    :func:`output_error`."""
+    try:
+        yield
+    except OSError as exc:
+        error = output_error(exc, path, prefer_path)
+        if error is None:
+            raise
+        raise error from exc
+
+
 def _umask() -> int:
     mask = os.umask(0)  # the only way to read it is to set it
     os.umask(mask)
@@ -38,20 +82,25 @@ def _umask() -> int:
 def write_atomic(path: str | os.PathLike, write: Callable[[BinaryIO], None]) -> Path:
     """Write a file through ``write(f)`` into a temporary file beside ``path``, flush it to disk,
     then rename it over ``path``: readers see the old file or the new one, never a part. The file
-    gets mode 0666 less the umask, as ``open`` would give it."""
+    gets mode 0666 less the umask, as ``open`` would give it.
+
+    Raises:
+        OutputError: no space, or a read-only or forbidden folder (the old file is kept).
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(fd, FILE_MODE & ~_umask())  # mkstemp makes 0600; others may read results
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with writing(path, prefer_path=True):  # not the temporary file's name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        try:
+            os.fchmod(fd, FILE_MODE & ~_umask())  # mkstemp makes 0600; others may read results
+            with os.fdopen(fd, "wb") as f:
+                write(f)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
     return path
 
 

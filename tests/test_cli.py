@@ -54,7 +54,7 @@ def test_every_script_explains_itself_with_defaults_and_its_whole_description(na
         (["video.py", "--fps", "nan"], "--fps: wants a finite number > 0"),
         (["evaluate.py", "--targets", "-5", "--controller", "random"], "--targets: wants"),
         (["bench.py", "all", "--steps", "3"], "'all' runs each benchmark with its defaults"),
-        (["evaluate.py", "--run", "/nonexistent/run"], "no checkpoint to resume"),
+        (["evaluate.py", "--run", "/nonexistent/run"], "does not exist; pass the --out folder"),
     ],
 )
 def test_bad_values_and_user_errors_are_one_line_with_status_2(args, message, tmp_path):

@@ -23,7 +23,8 @@ def _video(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     ("args", "message"),
     [
         ((), "the following arguments are required: --controller"),
-        (("--controller", "runs/none"), "wants random | analytic"),
+        (("--controller", "runs/none"), "runs/none does not exist; pass a train.py run folder"),
+        (("--controller", "nonsense"), "wants random | analytic"),
         (("--controller", "empty"), "empty is a folder without som.npz"),
         (("--controller", "missing.npz"), "missing.npz does not exist"),
     ],

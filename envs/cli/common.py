@@ -136,9 +136,15 @@ def user_errors() -> tuple[type[BaseException], ...]:
     """The project's errors that mean "your input or setup", not "a bug"."""
     from envs.harness.run_folder import RunFolderError
     from envs.sensing.rendering import RenderingUnavailableError
-    from learners.persistence import CheckpointError
+    from learners.persistence import CheckpointError, OutputError
 
-    return (CheckpointError, RunFolderError, RenderingUnavailableError, sizes.ImageSizeError)
+    return (
+        CheckpointError,
+        RunFolderError,
+        RenderingUnavailableError,
+        sizes.ImageSizeError,
+        OutputError,
+    )
 
 
 def fail(message: str) -> None:
@@ -148,10 +154,18 @@ def fail(message: str) -> None:
 
 
 def run(main: Callable[[], object]) -> None:
-    """Run a script's ``main`` with line-buffered stdout and user errors as one line, exit 2."""
+    """Run a script's ``main`` with line-buffered stdout and user errors as one line, exit 2;
+    a write that failed for lack of space or permission is one too (naming its file)."""
+    from learners.persistence import output_error
+
     sys.stdout.reconfigure(line_buffering=True)
     errors = user_errors()
     try:
         main()
     except errors as exc:
         fail(str(exc))
+    except OSError as exc:
+        error = output_error(exc, "the output")
+        if error is None:
+            raise
+        fail(str(error))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -37,14 +38,45 @@ def controller_spec(text: str) -> str:
         if not path.is_file():
             raise argparse.ArgumentTypeError(f"{text} does not exist; train a map with train.py")
         return text
+    if not path.exists() and ("/" in text or "\\" in text):
+        raise argparse.ArgumentTypeError(
+            f"{text} does not exist; pass a train.py run folder, a .npz map or one of "
+            f"{', '.join(NAMED)}"
+        )
     raise argparse.ArgumentTypeError(f"wants {SPECS}, got {text!r}")
 
 
-class Ticking(Controller):
-    """``inner`` that advances ``ticks`` (an iterator, e.g. a progress bar) at every trial."""
+def run_folder(text: str) -> Path:
+    """argparse type of evaluate's ``--run``: a train.py run folder, or its checkpoint
+    (``RUN/som.npz``) standing for the folder; anything else is a one-line usage error that
+    says what to pass."""
+    path = Path(text)
+    if path.is_file() and path.name == RUN_MAP_FILE:
+        return path.parent
+    if path.is_file():
+        also = f", or evaluate this map with --controller {text}" * (path.suffix == ".npz")
+        raise argparse.ArgumentTypeError(
+            f"{text} is a file, not a train.py run folder; pass the run's folder (or its "
+            f"{RUN_MAP_FILE}){also}"
+        )
+    if not path.exists():
+        raise argparse.ArgumentTypeError(
+            f"{text} does not exist; pass the --out folder of a train.py run, or train one there "
+            "first"
+        )
+    if not (path / RUN_MAP_FILE).is_file():
+        raise argparse.ArgumentTypeError(
+            f"{text} holds no {RUN_MAP_FILE}, so no train.py run; pass the --out folder of a "
+            "finished or stopped run"
+        )
+    return path
 
-    def __init__(self, inner: Controller, ticks) -> None:
-        self.inner, self._ticks = inner, iter(ticks)
+
+class Ticking(Controller):
+    """``inner`` that calls ``tick()`` (e.g. a progress bar's ``update``) as each trial starts."""
+
+    def __init__(self, inner: Controller, tick: Callable[[], object]) -> None:
+        self.inner, self._tick = inner, tick
 
     @property
     def protocol(self) -> str:
@@ -54,7 +86,7 @@ class Ticking(Controller):
         return self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
 
     def reset(self) -> None:
-        next(self._ticks, None)
+        self._tick()
         self.inner.reset()
 
 

@@ -13,19 +13,24 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import gymnasium as gym
+from tqdm import tqdm
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import REACH_ENVS, SPECS, Ticking, make_controller
+from envs.cli.controllers import REACH_ENVS, SPECS, Ticking, make_controller, run_folder
 from envs.harness import plots
-from envs.harness.evaluation import evaluate
+from envs.harness.checkpoint import read_identity
+from envs.harness.evaluation import Evaluation, evaluate
+from envs.harness.run_folder import check_writable, read_metrics
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
 from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
 from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
+from learners.persistence import write_atomic
 from learners.som.config import ABAR, PROTOCOLS
 from learners.som.controller import VisuomotorSOM
 
@@ -35,7 +40,11 @@ DEFAULT_SEED = 20_000
 
 def main(argv: list[str] | None = None) -> dict:
     p = cli.parser(__doc__)
-    p.add_argument("--run", type=Path, help="a training run folder (som.npz, metrics.jsonl)")
+    p.add_argument(
+        "--run",
+        type=run_folder,
+        help="a train.py run folder (som.npz, metrics.jsonl) or its som.npz",
+    )
     p.add_argument("--controller", help=f"instead of --run: {SPECS}")
     p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
     p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
@@ -69,6 +78,12 @@ def main(argv: list[str] | None = None) -> dict:
 
     run_config = {}
     if args.run is not None:
+        checkpoint = args.run / MAP_FILE
+        if read_identity(checkpoint) is None:
+            cli.fail(
+                f"{checkpoint} is a map without a training run's state; evaluate it with "
+                f"--controller {checkpoint}"
+            )
         run_config = vars(Trainer.stored_config(args.run))
     env_id = args.env or run_config.get("env", "RiacsReach-v0")
     sensing = args.sensing or run_config.get("sensing", "project")
@@ -78,23 +93,23 @@ def main(argv: list[str] | None = None) -> dict:
         run_config.get("height", IMAGE_HEIGHT),
     )
     cli.check_image_size(env_id, (width, height))
-    out = args.out or (args.run / "eval" if args.run else Path("runs/eval"))
-    env = gym.make(env_id, sensing=sensing, control=control, width=width, height=height)
+    out = check_writable(args.out or (args.run / "eval" if args.run else Path("runs/eval")))
     specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
+    plotted = not args.no_plots and specs[0].endswith(".npz")
+    metrics = None  # read before any work, so that a damaged log stops nothing half-way
+    if plotted and args.run is not None and (args.run / METRICS_FILE).is_file():
+        metrics = read_metrics(args.run / METRICS_FILE)
+    env = gym.make(env_id, sensing=sensing, control=control, width=width, height=height)
 
     rows, results = [], {}
     for spec in specs:
         controller = make_controller(spec, env, args.seed)
-        if isinstance(controller, VisuomotorSOM):
-            controller = controller.with_config(**som_changes(args))
-        env.reset(seed=args.seed)  # the same held-out targets for every controller
-        ticking = Ticking(controller, cli.progress(range(args.targets), spec, "target"))
-        result = evaluate(env, ticking, args.targets, args.fine_moves)
         name = spec
         if isinstance(controller, VisuomotorSOM):
-            name = f"som {controller.protocol}"
-            if controller.protocol == "mrs":
-                name += "+fit" * (controller.abar == "local-fit") + "+refine" * controller.refine
+            controller = controller.with_config(**som_changes(args))
+            name = som_name(controller)
+        env.reset(seed=args.seed)  # the same held-out targets for every controller
+        result = evaluate_with_bar(env, controller, name, args.targets, args.fine_moves)
         results[name] = result
         rows.append({"controller": name, **result.summary()})
     print(f"{env_id}  sensing={sensing} ({format_size(width, height)})  control={control}  "
@@ -104,14 +119,36 @@ def main(argv: list[str] | None = None) -> dict:
     summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
                "width": width, "height": height,
                "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
-    (out / "evaluation.json").write_text(json.dumps(summary, indent=1))
+    text = json.dumps(summary, indent=1).encode()
+    write_atomic(out / "evaluation.json", lambda f: f.write(text))
 
-    first = specs[0]
-    if not args.no_plots and first.endswith(".npz"):
-        write_plots(env, VisuomotorSOM.load(first), results[rows[0]["controller"]], args.run, out)
+    if plotted:
+        som = VisuomotorSOM.load(specs[0])
+        write_plots(env, som, results[rows[0]["controller"]], metrics, out)
         print(f"plots in {out}")
     env.close()
     return summary
+
+
+def som_name(som: VisuomotorSOM) -> str:
+    """A map's name in the table: its protocol and, for MRS, its fine-move options."""
+    name = f"som {som.protocol}"
+    if som.protocol == "mrs":
+        name += "+fit" * (som.abar == "local-fit") + "+refine" * som.refine
+    return name
+
+
+def evaluate_with_bar(env, controller, name: str, targets: int, fine_moves: int) -> Evaluation:
+    """:func:`evaluate` with a progress bar labelled ``evaluate NAME``, removed when done."""
+    with tqdm(
+        total=targets,
+        desc=f"evaluate {name}",
+        unit="target",
+        file=sys.stderr,
+        mininterval=0.5,
+        leave=False,
+    ) as bar:
+        return evaluate(env, Ticking(controller, bar.update), targets, fine_moves)
 
 
 def som_changes(args: argparse.Namespace) -> dict[str, object]:
@@ -146,11 +183,13 @@ def format_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_plots(env, som: VisuomotorSOM, result, run: Path | None, out: Path) -> None:
+def write_plots(
+    env, som: VisuomotorSOM, result: Evaluation, metrics: list[dict] | None, out: Path
+) -> None:
+    """The plots of the module's docstring into ``out`` (the learning curve if ``metrics``)."""
     base = env.unwrapped
-    if run is not None and (run / METRICS_FILE).is_file():
-        rows = [json.loads(r) for r in (run / METRICS_FILE).read_text().splitlines()]
-        plots.learning_curve(rows, base.reach, out / "learning_curve.png")
+    if metrics is not None:
+        plots.learning_curve(metrics, base.reach, out / "learning_curve.png")
     plots.error_histogram(result, out / "error_histogram.png")
     image = render_camera(base.model, base.data, "cam_left", base.stereo.height, base.stereo.width)
     plots.lattice_in_image(som.w, som.lattice, image, out / "lattice_left_camera.png")

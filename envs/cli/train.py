@@ -28,7 +28,13 @@ from envs.cli import common as cli
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
 from envs.reach import SENSING_MODES
+from learners.persistence import writing
 from learners.som.config import PROTOCOLS, RULES
+
+#: The progress bar's label while training, and while the map is evaluated on held-out targets
+#: (before the first trial, and every --eval-every trials), which the bar does not count.
+TRAINING = "train"
+EVALUATING = "train: held-out evaluation ({targets} targets)"
 
 
 def _text(value: object) -> str:
@@ -104,7 +110,8 @@ def main(argv: list[str] | None = None) -> Path:
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)
         try:
-            train(trainer, args.checkpoint_every, stop)
+            with writing(args.out):  # the metrics log's appends: no space is a user error
+                train(trainer, args.checkpoint_every, stop)
         finally:
             trainer.close()
     print(f"trained {trainer.trial} trials; map in {args.out / MAP_FILE}")
@@ -112,10 +119,15 @@ def main(argv: list[str] | None = None) -> Path:
 
 
 def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:
-    """Run ``trainer`` with a progress bar; on a stop signal say where it stopped and exit."""
+    """Run ``trainer`` with a progress bar; on a stop signal say where it stopped and exit.
+
+    The bar's label says when a held-out evaluation runs (it does not advance meanwhile): the
+    first comes before the first trial, on the untrained map."""
+    evaluating = EVALUATING.format(targets=trainer.config.eval_trials)
     bar = tqdm(
         total=trainer.config.trials,
         initial=trainer.trial,
+        desc=evaluating if trainer.pending_eval else TRAINING,
         unit="trial",
         file=sys.stderr,
         mininterval=0.5,
@@ -127,7 +139,12 @@ def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:
             fine_mm=f"{running['fine_mm']:.2f}",
             refresh=False,
         )
+        label = evaluating if trainer.pending_eval else TRAINING
+        changed = label != bar.desc
+        bar.set_description_str(label, refresh=False)
         bar.update(trial - bar.n)
+        if changed:
+            bar.refresh()  # shown now: an evaluation may keep the bar still for a while
 
     try:
         trainer.run(checkpoint_every=checkpoint_every, progress=progress, stop=stop)
@@ -135,6 +152,7 @@ def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:
         bar.close()
         print(f"{exc} at trial {trainer.trial}; checkpoint saved, continue with --resume")
         raise SystemExit(exc.exit_code) from None
+    bar.set_description_str(TRAINING, refresh=False)  # the last evaluation is done
     bar.close()
 
 

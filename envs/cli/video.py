@@ -12,6 +12,7 @@ import gymnasium as gym
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli.controllers import REACH_ENVS, SPECS, controller_spec, make_controller
+from envs.harness.run_folder import check_writable
 from envs.harness.trials import Trial, run_trial
 from envs.harness.video import VideoWriter, annotate
 from envs.reach import SENSING_MODES
@@ -32,6 +33,7 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument("--fps", type=cli.positive_float, default=6.0)
     parser.add_argument("--out", type=Path, default=Path("runs/video/eval.mp4"))
     args = parser.parse_args(argv)
+    check_writable(args.out.parent)  # a read-only folder or a full disk, before any work
 
     env = gym.make(args.env, sensing=args.sensing, control=args.control, render_mode="rgb_array")
     controller = make_controller(args.controller, env, args.seed)

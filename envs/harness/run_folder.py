@@ -1,17 +1,20 @@
 """A training run's folder, guarded: one writer at a time (a lock naming its PID), no fresh run
-over an old one unless asked, no temporaries left by killed saves, and a metrics log cut back to
-the rows its checkpoint knows."""
+over an old one unless asked, no temporaries left by killed saves, a metrics log cut back to
+the rows its checkpoint knows, and output folders found unwritable before any work."""
 
 from __future__ import annotations
 
 import fcntl
 import json
 import os
-from collections.abc import Iterator
+import sys
+import tempfile
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
-from learners.persistence import CheckpointError, write_atomic
+from learners.persistence import CheckpointError, write_atomic, writing
 
 LOCK_FILE = "run.lock"
 METRICS_FILE = "metrics.jsonl"
@@ -27,11 +30,13 @@ class RunFolder:
 
     Raises:
         RunFolderError: another live process holds the folder (the message names its PID).
+        OutputError: the folder cannot be created or written (read-only, no space).
     """
 
     def __init__(self, out: str | os.PathLike) -> None:
         self.path = Path(out)
-        self.path.mkdir(parents=True, exist_ok=True)
+        with writing(self.path):
+            self.path.mkdir(parents=True, exist_ok=True)
         self._fd: int | None = take_lock(self.path / LOCK_FILE, wait=False)
         for tmp in self.path.glob(".*.tmp"):  # left by saves that were killed
             tmp.unlink(missing_ok=True)
@@ -63,9 +68,12 @@ def take_lock(lock: Path, wait: bool) -> int:
         wait: block while another process holds it; else raise.
     Raises:
         RunFolderError: another live process holds it and not ``wait`` (names its PID).
+        OutputError: the lock cannot be created or its PID written (read-only folder, no
+            space); no lock file is left behind.
     """
     while True:
-        fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        with writing(lock):
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
         except BlockingIOError:
@@ -80,8 +88,13 @@ def take_lock(lock: Path, wait: bool) -> int:
         if lock.exists() and os.stat(lock).st_ino == os.fstat(fd).st_ino:
             break
         os.close(fd)
-    os.ftruncate(fd, 0)
-    os.write(fd, f"{os.getpid()}\n".encode())
+    try:
+        with writing(lock):
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+    except BaseException:
+        release_lock(lock, fd)  # an empty lock would name no holder
+        raise
     return fd
 
 
@@ -109,13 +122,7 @@ def truncate_metrics(path: Path, rows: int) -> None:
         CheckpointError: fewer than ``rows`` readable rows.
     """
     lines = path.read_bytes().split(b"\n") if path.is_file() else []
-    kept = []
-    for line in lines[:rows]:
-        try:
-            json.loads(line)
-        except ValueError:
-            break
-        kept.append(line)
+    kept = lines[: len(_readable_rows(lines[:rows]))]
     if len(kept) < rows:
         raise CheckpointError(
             f"{path}: {len(kept)} readable rows, the checkpoint counts {rows}; the log was "
@@ -124,3 +131,60 @@ def truncate_metrics(path: Path, rows: int) -> None:
     text = b"".join(line + b"\n" for line in kept)
     if not path.is_file() or path.read_bytes() != text:
         write_atomic(path, lambda f: f.write(text))
+
+
+def check_writable(folder: str | os.PathLike) -> Path:
+    """Write (and remove) a one-byte file in ``folder``, or in its nearest existing ancestor
+    if it does not exist yet, so that a read-only folder or a full disk is found before any
+    work; nothing is left behind (a refused run creates no folder). Returns ``folder``.
+
+    Raises:
+        OutputError: that folder cannot be written.
+    """
+    folder = Path(folder)
+    existing = next(p for p in (folder, *folder.absolute().parents) if p.is_dir())
+    with writing(folder, prefer_path=True):  # not the probe's name
+        fd, probe = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=existing)
+        try:
+            os.write(fd, b"\0")
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+            os.unlink(probe)
+    return folder
+
+
+def _note(message: str) -> None:
+    print(f"note: {message}", file=sys.stderr)
+
+
+def read_metrics(path: Path, report: Callable[[str], None] = _note) -> list[dict[str, Any]]:
+    """The rows of a metrics log. A torn last line (a write cut short by a kill or a full disk,
+    which ``--resume`` cuts away) is left out and reported through ``report`` as one line.
+
+    Raises:
+        CheckpointError: a row before the last is unreadable (the log was damaged).
+    """
+    lines = path.read_bytes().split(b"\n")
+    if lines[-1] == b"":
+        lines.pop()  # the newline that ends the last complete row
+    rows = _readable_rows(lines)
+    if len(rows) < len(lines) - 1:
+        raise CheckpointError(
+            f"{path}: row {len(rows) + 1} of {len(lines)} is unreadable; the log was damaged; "
+            "restore it, or evaluate with --no-plots"
+        )
+    if len(rows) < len(lines):
+        report(f"{path}: left out its torn last line (a write cut short), as --resume would")
+    return rows
+
+
+def _readable_rows(lines: list[bytes]) -> list[Any]:
+    """The rows of ``lines`` (JSON each) up to the first that does not parse."""
+    rows = []
+    for line in lines:
+        try:
+            rows.append(json.loads(line))
+        except ValueError:
+            break
+    return rows
