@@ -46,6 +46,13 @@ if SOAK:  # ten times the trials and the signals
         return [*options[:i], str(10 * int(options[i])), *options[i + 1 :]]
 
     SETTINGS = [(name, _longer(opts), 10 * n) for name, opts, n in SETTINGS]
+#: A soak of one setting with more signals: VISUOMOTOR_SOAK_ONLY=keep-arm-servo
+#: VISUOMOTOR_SOAK_SIGNALS=1000 (consecutive runs of the setting until that many were sent).
+if os.environ.get("VISUOMOTOR_SOAK_ONLY"):
+    SETTINGS = [s for s in SETTINGS if s[0] == os.environ["VISUOMOTOR_SOAK_ONLY"]]
+    assert SETTINGS, f"VISUOMOTOR_SOAK_ONLY names no setting of {[s[0] for s in SETTINGS]}"
+if os.environ.get("VISUOMOTOR_SOAK_SIGNALS"):
+    SETTINGS = [(n, o, int(os.environ["VISUOMOTOR_SOAK_SIGNALS"])) for n, o, _ in SETTINGS]
 
 
 def _command(out: Path, options: list[str]) -> list[str]:
