@@ -102,9 +102,7 @@ def test_flat_boxes_agree(rank):
 def trained(kernel: str, **options) -> VisuomotorSOM:
     """A map trained on 1,500 simulated trials (t_max 1,000: the narrowest neighbourhood at
     the end, as an evaluated map is)."""
-    som = VisuomotorSOM(
-        LOWER, UPPER, t_max=1000, rng=4, input_high=IMAGE, kernel=kernel, **options
-    )
+    som = VisuomotorSOM(LOWER, UPPER, t_max=1000, rng=4, input_high=IMAGE, kernel=kernel, **options)
     rng = np.random.default_rng(8)
     for _ in range(1500):
         u = rng.uniform(0.0, IMAGE)
