@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> None:
     names = BENCHMARKS if args.benchmark == "all" else (args.benchmark,)
     for name in names:
         print(f"\n== bench {name} ==")
-        importlib.import_module(f"bench_{name}").main(args.options)
+        importlib.import_module(f"envs.cli.bench_{name}").main(args.options)
 
 
 def run() -> None:

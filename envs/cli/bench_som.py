@@ -12,7 +12,11 @@ Rows of the table:
     ratio printed is the median over the rounds, with the lowest and highest round beside it;
   * act_batch targets/s: coarse commands for a block of targets at once;
   * a large lattice (``--big``, default 40×40×40): construction time, memory held (peak of
-    numpy allocations while constructing and training, from tracemalloc) and trials/s.
+    numpy allocations while constructing and training, from tracemalloc) and trials/s;
+  * the evaluation's fine move: µs of the first ``act(u, v)`` after a coarse move of the
+    trained map (``abar="local-fit"``: it fits Ā), per kernel, beside the whole command of
+    ``AnalyticIK`` (triangulation and closed-form IK of the RIACS arm) as the peer, taking turns
+    block by block; medians over the calls.
 Writes ``bench_som.json``.
 
     .venv/bin/python scripts/bench_som.py [--trials 10000] [--big 40 40 40] [--out runs/bench_som]
@@ -29,7 +33,10 @@ from pathlib import Path
 import numpy as np
 
 from envs.cli import common as cli
+from envs.sensing.stereo import CameraPair, PinholeCamera
+from learners.baselines.analytic_ik import AnalyticIK
 from learners.som.controller import VisuomotorSOM, kernels
+from models import load_model, riacs
 from models.riacs import LOWER, UPPER
 
 IMAGE_SIZE = np.array([320.0, 240.0, 320.0, 240.0])  #: input box of the random pixels (px)
@@ -147,6 +154,60 @@ def big_lattice(lattice: tuple[int, ...], trials: int, seed: int, kernel: str) -
     }
 
 
+def analytic_ik(targets: int, seed: int) -> tuple[AnalyticIK, np.ndarray]:
+    """The RIACS arm's AnalyticIK behind its scene's two cameras (projection only, no
+    renderer), and the pixels (targets, 4) of points drawn from its workspace."""
+    import mujoco
+
+    model = load_model("riacs")
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    rig = CameraPair(
+        [PinholeCamera.from_model(model, data, c, 240, 320) for c in ("cam_left", "cam_right")]
+    )
+    points = riacs.WORKSPACE.sample(np.random.default_rng(seed), targets)
+    return AnalyticIK.for_robot(rig.triangulate, "riacs"), rig.project(points)
+
+
+def fine_move_seconds(som: VisuomotorSOM, U: np.ndarray, V: np.ndarray) -> list[float]:
+    """Seconds of each evaluation fine move: ``act(u, v)`` right after ``reset`` and ``act(u)``
+    (not timed), without exploration, as the evaluation makes it."""
+    seconds = []
+    for u, v in zip(U, V, strict=True):
+        som.reset()
+        som.act(u)
+        start = time.perf_counter()
+        som.act(u, v)
+        seconds.append(time.perf_counter() - start)
+    return seconds
+
+
+def command_seconds(peer: AnalyticIK, U: np.ndarray) -> list[float]:
+    """Seconds of each whole ``act(u)`` of the peer."""
+    seconds = []
+    for u in U:
+        start = time.perf_counter()
+        peer.act(u)
+        seconds.append(time.perf_counter() - start)
+    return seconds
+
+
+def fine_moves(maps: dict[str, VisuomotorSOM], inputs, block: int, seed: int) -> dict[str, float]:
+    """Median µs of a trained map's evaluation fine move per kernel and of AnalyticIK's
+    command, measured in turns block by block over the same number of calls."""
+    U, V = inputs[0], inputs[1]
+    peer, peer_U = analytic_ik(len(U), seed)
+    command_seconds(peer, peer_U[:block])  # first calls out of the way
+    for som in maps.values():
+        fine_move_seconds(som, U[:block], V[:block])
+    seconds: dict[str, list[float]] = {name: [] for name in (*maps, "AnalyticIK")}
+    for i in range(0, len(U), block):
+        for name, som in maps.items():
+            seconds[name] += fine_move_seconds(som, U[i : i + block], V[i : i + block])
+        seconds["AnalyticIK"] += command_seconds(peer, peer_U[i : i + block])
+    return {name: 1e6 * float(np.median(s)) for name, s in seconds.items()}
+
+
 def main(argv: list[str] | None = None) -> dict:
     parser = cli.parser(__doc__)
     parser.add_argument(
@@ -174,7 +235,7 @@ def main(argv: list[str] | None = None) -> dict:
     lattice, n = args.lattice, math.prod(args.lattice)
     inputs = _inputs(np.random.default_rng(args.seed), args.trials)
     result: dict = {"neurons": n, "trials": args.trials, "minisom_shape": minisom_shape(n)}
-    rows = []
+    rows, trained = [], {}
     for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):
         time_trials(_som(lattice, 3, args.seed, kernel), *(x[:3] for x in inputs))  # compiles
         measured = rounds(kernel, lattice, inputs, args.block, args.rounds, args.seed)
@@ -184,6 +245,7 @@ def main(argv: list[str] | None = None) -> dict:
             rows.append((f"{kernel}: full trial, {when}", figures["trials_per_s"], figures))
         som = _som(lattice, args.trials, args.seed, kernel)
         time_trials(som, *inputs)
+        trained[kernel] = som
         U = np.resize(inputs[0], (args.batch, 4))
         start = time.perf_counter()
         som.act_batch(U)
@@ -201,6 +263,15 @@ def main(argv: list[str] | None = None) -> dict:
             low, high = min(figures["round_ratios"]), max(figures["round_ratios"])
             ratio, spread = f"{figures['ratio']:.2f}", f"{low:.2f}-{high:.2f}"
         print(f"{what:<40} {rate:>10,.0f} {ratio:>29} {spread:>12}")
+    fine = fine_moves(trained, inputs, args.block, args.seed)
+    result["fine_move_us"] = fine
+    print(f"\nevaluation fine move of the trained map (abar={trained['numpy'].abar}, first "
+          f"act(u, v) after act(u)) beside AnalyticIK's command (RIACS), same run, same blocks; "
+          f"medians of {args.trials} calls")  # fmt: skip
+    print(f"{'what':<40} {'µs/call':>10} {'/ AnalyticIK':>13}")
+    for name, micros in fine.items():
+        what = "AnalyticIK: command" if name == "AnalyticIK" else f"{name}: map fine move"
+        print(f"{what:<40} {micros:>10.1f} {micros / fine['AnalyticIK']:>13.2f}")
     if args.big:
         big = args.big
         for kernel in ("numba", "numpy") if kernels.available() else ("numpy",):

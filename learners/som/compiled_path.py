@@ -12,6 +12,9 @@ refuses an input it has changed nothing, and the method returns None: the map's 
 message as without numba. The exploration noise is drawn after the inputs are checked, so a
 refused call leaves the generator as it was.
 
+The evaluation's first fine move with ``abar="local-fit"`` fits Ā in one kernel call too
+(``learners/som/local_fit_kernel.py``), into the Ā of the fine-move memory.
+
 Used for ``kernel="numba"`` under protocol "mrs" (``learners.som.protocols.CompiledMRS``);
 ``tests/test_kernels.py`` checks it against the numpy reference over 1,000 trials.
 """
@@ -23,6 +26,7 @@ import math
 import numpy as np
 
 from learners.som import kernels
+from learners.som.local_fit import FIT_RADIUS, FIT_RIDGE, FIT_SIGMA
 
 #: Lattices of at least this many neurons search the winner block by block (bounding spheres of
 #: 4³-neuron blocks); below it a plain scan is as fast.
@@ -81,7 +85,7 @@ class CompiledPath:
         if u.tobytes() != self._u.tobytes():  # a new target: Ā around its winner
             self._abar, self._u, self._v = self._coarse(u)[1], u.copy(), None
         if self._v is None and not explore and self.abar == "local-fit":
-            self._abar = self._local_abar(u)  # once per target, numpy
+            self._local_fit_compiled(u)  # once per target
         std = self.params()[4]
         noise = self.rng.normal(0.0, std, size=self.n_joints) if explore and std > 0 else None
         refine = self.refine and self._v is not None
@@ -93,6 +97,17 @@ class CompiledPath:
         )  # fmt: skip
         self._v, self._cmd_before = v_before, cmd_before
         return self._cmd.copy()
+
+    def _local_fit_compiled(self, u: np.ndarray) -> None:
+        """Ā of the local fit at target u (``learners/som/local_fit.py``) written into the
+        fine-move memory's Ā, around the winner the coarse move found when the map has not
+        changed since."""
+        memo = self._last_winner
+        same = memo[0] == u.tobytes() and memo[1] == self._version
+        s = memo[2] if same else self._winner(u)
+        kernels.local_fit(
+            s, u, self._w, self._A, self._shape, FIT_RADIUS, FIT_SIGMA, FIT_RIDGE, self._abar
+        )
 
     def _learn_compiled(
         self, u: np.ndarray, theta0: np.ndarray, v0: np.ndarray, theta1: np.ndarray, v1: np.ndarray

@@ -17,7 +17,8 @@ place (``tests/test_kernels.py`` bounds the difference over 1,000 trials).
 inside the input box and joint ranges: the tests of ``learners/guards.py``) and return a status
 with nothing changed when one fails; ``learners/som/compiled_path.py`` then hands the call to the
 checked path, which raises the error. numba is optional (extra ``fast``); :func:`available`
-says whether it imports. The winner search lives in ``learners/som/winner_search.py``.
+says whether it imports. The winner search lives in ``learners/som/winner_search.py``, the
+local fit of Ā for the evaluation's fine moves in ``learners/som/local_fit_kernel.py``.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 
 from learners.compiled import available
 from learners.compiled import jit as _jit
+from learners.som.local_fit_kernel import local_fit
 from learners.som.winner_search import (
     BLOCK,
     SLACK,
@@ -36,8 +38,8 @@ from learners.som.winner_search import (
 )
 
 __all__ = [
-    "BLOCK", "act_coarse", "available", "coarse", "fine", "learn", "refresh_blocks", "status",
-    "winner", "winner_pruned",
+    "BLOCK", "act_coarse", "available", "coarse", "fine", "learn", "local_fit", "refresh_blocks",
+    "status", "winner", "winner_pruned",
 ]  # fmt: skip
 
 

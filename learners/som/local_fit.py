@@ -19,7 +19,8 @@ extrapolation), and a small ridge keeps the slopes finite where the box is flat.
 averages out part of each A_r's noise and follows the change of A across the box.
 
 The result depends only on the map (w, A, the lattice), never on the arm's kinematics or
-the cameras.
+the cameras. This numpy function is the reference; the compiled path computes the same fit
+in ``learners/som/local_fit_kernel.py``.
 """
 
 from __future__ import annotations
