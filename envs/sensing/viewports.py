@@ -89,6 +89,13 @@ class View:
     center: np.ndarray  # (2,) px of the base image
     window: Window
 
+    @classmethod
+    def whole(cls, camera: str, height: int, width: int) -> View:
+        """The camera's whole image at ``height`` × ``width`` px through its own frustum (the
+        model's field of view, vertical; intrinsics are not needed and are NaN)."""
+        nan = np.full(2, np.nan)
+        return cls(camera, nan, nan, Window.full(height, width))
+
 
 class ViewportRenderer:
     """Renders views side by side into one off-screen buffer of the model and reads them back.
@@ -102,10 +109,21 @@ class ViewportRenderer:
     Args:
         model: the MuJoCo model; its off-screen buffer is enlarged, if needed, to
             (max_height, max_width) when the context is made.
+        off_flags: the ``mjtRndFlag`` names turned off (default: shadows, reflections and the
+            skybox, which the sensing cameras do not need).
+        textures: whether textures are drawn (the sensing cameras see flat colours).
     """
 
-    def __init__(self, model, max_height: int, max_width: int) -> None:
+    def __init__(
+        self,
+        model,
+        max_height: int,
+        max_width: int,
+        off_flags: Sequence[str] = SENSING_OFF_FLAGS,
+        textures: bool = False,
+    ) -> None:
         self.model, self.max_height, self.max_width = model, max_height, max_width
+        self.off_flags, self.textures = tuple(off_flags), textures
         self._gl = self._context = self._scene = None
         self._free: weakref.finalize | None = None  # frees _context and _gl, once
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
@@ -136,7 +154,7 @@ class ViewportRenderer:
         self._gl, self._context = gl, context
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
-        for flag in SENSING_OFF_FLAGS:
+        for flag in self.off_flags:
             self._scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
 
     def _option(self, groups: tuple[int, ...]):
@@ -145,7 +163,7 @@ class ViewportRenderer:
         option = self._options.get(groups)
         if option is None:
             option = mujoco.MjvOption()
-            option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = 0
+            option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = int(self.textures)
             option.geomgroup[:] = 0
             for g in groups:
                 option.geomgroup[g] = 1
@@ -176,9 +194,10 @@ class ViewportRenderer:
         return self._geoms[key]
 
     def render(
-        self, data, views: Sequence[View], groups: Sequence[int]
-    ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """RGB (h, w, 3) uint8 and depth (h, w) m of each view, rows top first."""
+        self, data, views: Sequence[View], groups: Sequence[int], depth: bool = True
+    ) -> list[tuple[np.ndarray, np.ndarray | None]]:
+        """RGB (h, w, 3) uint8 and depth (h, w) m of each view, rows top first; with
+        ``depth=False`` only the colours are read back (depth None)."""
         import mujoco
 
         if self._gl is None:
@@ -216,9 +235,13 @@ class ViewportRenderer:
                 geom.type = kind
             x += w.width
         rgb = np.empty((height, x, 3), dtype=np.uint8)
-        raw = np.empty((height, x), dtype=np.float32)
+        raw = np.empty((height, x), dtype=np.float32) if depth else None
         mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), self._context)
-        rgb, raw = rgb[::-1], raw[::-1]  # GL rows are bottom first
+        rgb = rgb[::-1]  # GL rows are bottom first
+        if raw is None:
+            return [(rgb[height - v.window.height :, c - v.window.width : c], None)
+                    for v, c in zip(views, np.cumsum(widths).tolist(), strict=True)]  # fmt: skip
+        raw = raw[::-1]
         near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
         out, x = [], 0
         for view in views:
