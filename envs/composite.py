@@ -2,24 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
-
 import cv2
 import numpy as np
 
-from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
-from envs.sensing.viewports import View, ViewportRenderer
+from envs.sensing.viewports import VISIBLE_GROUPS, View, ViewportRenderer
 
-PLANE = 0  # mjtGeom.mjGEOM_PLANE
-VISIBLE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
 PANELS = ("cam_left", "cam_right", "overview")
 #: Render flags turned off: shadows and reflections cost most on software GL; the skybox and
 #: textures (the floor's checker) stay.
 FRAME_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION")
-#: Grid spacing (m) that planes (the floor) are drawn with here. A plane is drawn as a grid of
-#: quads, for lighting; the scenes' fine grid costs most of a frame on software GL, and under
-#: directional lights a coarse one looks the same.
+#: Grid spacing (m) the floor is drawn with (see ViewportRenderer's plane_grid).
 PLANE_GRID = 0.5
 CROSSHAIR = (255, 60, 60)  # target, as sensed at reset
 DETECTION = (60, 255, 60)  # effector marker, as detected after the last move
@@ -29,20 +21,27 @@ class CompositeView:
     """Left view | right view | overview, each (height, width), with sensing drawn on the views.
 
     The three views are viewports of one off-screen buffer, drawn without shadows, reflections
-    or multisampling and read back at once, colours only: a frame for people at a video's pace
-    on software GL. The renderer starts at the first frame.
+    or multisampling, the floor with a coarse lighting grid, and read back at once, colours
+    only: a frame for people at a video's pace on software GL. The renderer starts at the
+    first frame.
     """
 
     def __init__(self, model, height: int, width: int) -> None:
         self.height, self.width = height, width
-        self._model = model
-        self._renderer = ViewportRenderer(model, height, len(PANELS) * width, FRAME_OFF_FLAGS, True)
+        self._renderer = ViewportRenderer(
+            model,
+            height,
+            len(PANELS) * width,
+            FRAME_OFF_FLAGS,
+            textures=True,
+            own_headlight=True,
+            plane_grid=PLANE_GRID,
+        )
         self._views = [View.whole(name, height, width) for name in PANELS]
 
     def render(self, data, target_px: np.ndarray, effector_px: np.ndarray) -> np.ndarray:
         """(height, 3·width, 3) uint8; NaN effector pixels (not visible) are not drawn."""
-        with _coarse_planes(self._model):
-            images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
+        images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
         panels = []
         for k, name in enumerate(PANELS[:2]):
             view = np.ascontiguousarray(images[k][0])
@@ -66,19 +65,6 @@ class CompositeView:
 
     def close(self) -> None:
         self._renderer.close()
-
-
-@contextmanager
-def _coarse_planes(model) -> Iterator[None]:
-    """Planes drawn with PLANE_GRID for the block (the grid spacing is a drawing setting only:
-    physics and the sensing cameras, which draw outside the block, keep the model's)."""
-    planes = model.geom_type == PLANE
-    saved = model.geom_size[planes, 2].copy()
-    model.geom_size[planes, 2] = np.maximum(saved, PLANE_GRID)
-    try:
-        yield
-    finally:
-        model.geom_size[planes, 2] = saved
 
 
 def _crosshair(image: np.ndarray, uv: np.ndarray, size: int = 9) -> None:

@@ -17,6 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.sensing.rendering import (
+    GROUP_MARKER,
+    GROUP_ROBOT,
+    GROUP_SCENE,
+    GROUP_TARGET,
     SENSING_OFF_FLAGS,
     check_gl_allowed,
     free_gl,
@@ -33,6 +37,10 @@ SPHERE_SLICES = 36
 SPHERE_STACKS = 18
 #: mjtGeom values of the capsule and the cylinder (bounded by capsules, see _bounding_capsules).
 mjGEOM_CAPSULE, mjGEOM_CYLINDER = 3, 5
+#: Geom groups a camera sees when it looks at the whole scene (floor, target, robot, marker).
+VISIBLE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
+#: mjtGeom value of the plane.
+mjGEOM_PLANE = 0
 #: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
 SQUARE_PIXEL_TOL = 1e-5
 
@@ -112,6 +120,13 @@ class ViewportRenderer:
         off_flags: the ``mjtRndFlag`` names turned off (default: shadows, reflections and the
             skybox, which the sensing cameras do not need).
         textures: whether textures are drawn (the sensing cameras see flat colours).
+        own_headlight: whether each view is lit by its own camera's headlight, as a renderer
+            of that camera alone would light it; else every view by the first view's (the
+            sensing cameras, whose colour detection was set up that way).
+        plane_grid: grid spacing (m) planes are drawn with, if coarser than the model's (None:
+            the model's). A plane is drawn as a grid of quads for its per-vertex lighting, fixed
+            when the context is made; the scenes' fine grid costs about half of a whole view on
+            software GL, and a coarse one changes only the shading of the floor's highlight.
     """
 
     def __init__(
@@ -121,9 +136,12 @@ class ViewportRenderer:
         max_width: int,
         off_flags: Sequence[str] = SENSING_OFF_FLAGS,
         textures: bool = False,
+        own_headlight: bool = False,
+        plane_grid: float | None = None,
     ) -> None:
         self.model, self.max_height, self.max_width = model, max_height, max_width
         self.off_flags, self.textures = tuple(off_flags), textures
+        self.own_headlight, self.plane_grid = own_headlight, plane_grid
         self._gl = self._context = self._scene = None
         self._free: weakref.finalize | None = None  # frees _context and _gl, once
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
@@ -139,6 +157,10 @@ class ViewportRenderer:
         g.offwidth, g.offheight = max(g.offwidth, self.max_width), max(g.offheight, self.max_height)
         q.offsamples = 0
         q.numslices, q.numstacks = SPHERE_SLICES, SPHERE_STACKS  # see SPHERE_SLICES
+        planes = self.model.geom_type == mjGEOM_PLANE
+        grids = self.model.geom_size[planes, 2].copy()  # m
+        if self.plane_grid is not None:
+            self.model.geom_size[planes, 2] = np.maximum(grids, self.plane_grid)
         try:
             gl = mujoco.GLContext(g.offwidth, g.offheight)
             gl.make_current()
@@ -147,6 +169,7 @@ class ViewportRenderer:
             raise gl_start_error(exc) from exc
         finally:
             g.offwidth, g.offheight, q.offsamples, q.numslices, q.numstacks = saved
+            self.model.geom_size[planes, 2] = grids
         mark_gl_started()
         # The finaliser holds both until it runs, so neither is freed on its own, in the wrong
         # order or under another renderer's context (see free_gl).
@@ -222,6 +245,8 @@ class ViewportRenderer:
         for k, view in enumerate(views):
             if k > 0:
                 mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
+                if self.own_headlight:
+                    mujoco.mjv_makeLights(self.model, data, scene)
             hidden = []
             if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
                 _set_frustum(scene, view)
