@@ -19,6 +19,7 @@ from envs.sensing.camera_images import CameraImages
 from envs.sensing.sensors import SENSING_MODES, make_sensor
 from envs.sensing.stereo import CameraPair
 from envs.sensing.triangulation import camera_floats
+from envs.step_info import StepInfo
 from envs.viewer import HumanViewer
 
 CONTROL_MODES = ("servo", "kinematic")
@@ -537,20 +538,22 @@ class ReachEnv(ArmScene):
         """Normalised goal coordinates (4 floats or arrays) -> pixels, elementwise."""
         return [(x + 1.0) * h for x, h in zip(q, self._pixel_half[:4].tolist(), strict=True)]
 
-    def _info(self, clipped: bool, settle_time: float) -> dict[str, Any]:
+    def _info(self, clipped: bool, settle_time: float) -> StepInfo:
         target = self.data.mocap_pos[0].copy()
         effector = self.sensed_point()
         distance = math.dist(target.tolist(), effector.tolist())
         du, dv, du2, dv2 = (self._last["effector"] - self._last["target"]).tolist()
-        return {
-            "distance": distance,
-            "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
-            "is_success": distance < self.success_threshold,
-            "visible": all(self._visible_target.tolist() + self._visible_effector.tolist()),
-            "visible_target": self._visible_target.copy(),
-            "visible_effector": self._visible_effector.copy(),
-            "target_pos": target,
-            "effector_pos": effector,
-            "clipped": clipped,
-            "settle_time": settle_time,
-        }
+        return StepInfo(
+            {
+                "distance": distance,
+                "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
+                "is_success": distance < self.success_threshold,
+                "visible": all(self._visible_target.tolist() + self._visible_effector.tolist()),
+                "visible_target": self._visible_target.copy(),
+                "visible_effector": self._visible_effector.copy(),
+                "target_pos": target,
+                "effector_pos": effector,
+                "clipped": clipped,
+                "settle_time": settle_time,
+            }
+        )
