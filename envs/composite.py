@@ -36,6 +36,7 @@ class CompositeView:
             textures=True,
             own_headlight=True,
             plane_grid=PLANE_GRID,
+            facets=None,  # the model's
         )
         self._views = [View.whole(name, height, width) for name in PANELS]
 

@@ -127,6 +127,9 @@ class ViewportRenderer:
             the model's). A plane is drawn as a grid of quads for its per-vertex lighting, fixed
             when the context is made; the scenes' fine grid costs about half of a whole view on
             software GL, and a coarse one changes only the shading of the floor's highlight.
+        facets: slices and stacks of the built-in meshes (spheres, capsules, cylinders); None:
+            the model's (``<visual><quality>``). Default: the sensing cameras' SPHERE_SLICES ×
+            SPHERE_STACKS.
     """
 
     def __init__(
@@ -138,10 +141,11 @@ class ViewportRenderer:
         textures: bool = False,
         own_headlight: bool = False,
         plane_grid: float | None = None,
+        facets: tuple[int, int] | None = (SPHERE_SLICES, SPHERE_STACKS),
     ) -> None:
         self.model, self.max_height, self.max_width = model, max_height, max_width
         self.off_flags, self.textures = tuple(off_flags), textures
-        self.own_headlight, self.plane_grid = own_headlight, plane_grid
+        self.own_headlight, self.plane_grid, self.facets = own_headlight, plane_grid, facets
         self._gl = self._context = self._scene = None
         self._free: weakref.finalize | None = None  # frees _context and _gl, once
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
@@ -156,7 +160,8 @@ class ViewportRenderer:
         saved = (g.offwidth, g.offheight, q.offsamples, q.numslices, q.numstacks)
         g.offwidth, g.offheight = max(g.offwidth, self.max_width), max(g.offheight, self.max_height)
         q.offsamples = 0
-        q.numslices, q.numstacks = SPHERE_SLICES, SPHERE_STACKS  # see SPHERE_SLICES
+        if self.facets is not None:
+            q.numslices, q.numstacks = self.facets  # see SPHERE_SLICES
         planes = self.model.geom_type == mjGEOM_PLANE
         grids = self.model.geom_size[planes, 2].copy()  # m
         if self.plane_grid is not None:
