@@ -247,3 +247,17 @@ def test_gym_make_exposes_compute_reward(env_id):
     assert got[0] == reward
     again = gym.make(env.spec)  # the recorded wrapper is applied once, again
     assert isinstance(again, GoalEnvWrapper) and not isinstance(again.env, GoalEnvWrapper)
+
+
+def test_record_video_writes_at_the_envs_frame_rate(tmp_path):
+    pytest.importorskip("moviepy", reason="RecordVideo needs moviepy (pip install moviepy)")
+    imageio = pytest.importorskip("imageio.v3")
+    env = gym.make("RiacsReach-v0", render_mode="rgb_array", **FAST)
+    env = gym.wrappers.RecordVideo(env, str(tmp_path), episode_trigger=lambda _: True)
+    env.reset(seed=0)
+    truncated = False
+    while not truncated:
+        truncated = env.step(env.action_space.sample())[3]
+    env.close()
+    (video,) = tmp_path.glob("*.mp4")
+    assert imageio.immeta(video)["fps"] == env.metadata["render_fps"]
