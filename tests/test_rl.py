@@ -114,7 +114,8 @@ def test_sac_her_learns_from_rewards_the_env_computes():
 
 def test_sac_on_images_with_a_cnn_policy():
     """200 steps of SAC with ``MultiInputPolicy`` on both camera images and the goals: SB3 gives
-    each image its own CNN, and the images reach the replay buffer as the env made them."""
+    each image its own CNN, and the images reach the replay buffer as the env made them (SB3
+    transposes them to channel first)."""
     result = _child(
         """
         import gymnasium as gym
@@ -135,8 +136,9 @@ def test_sac_on_images_with_a_cnn_policy():
             "steps": model.num_timesteps,
             "cnn": sorted(k for k, m in extractors.items() if isinstance(m, NatureCNN)),
             "dtype": str(buffer.observations["pixels_left"].dtype),
-            "first_image_stored": bool(np.array_equal(
-                buffer.observations["pixels_left"][0, 0], first["pixels_left"])),
+            # SB3 stores images channel first (VecTransposeImage)
+            "first_image_stored": bool(np.array_equal(np.moveaxis(
+                buffer.observations["pixels_left"][0, 0], 0, -1), first["pixels_left"])),
         }))
         """
     )

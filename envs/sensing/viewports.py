@@ -108,10 +108,10 @@ class View:
 class ViewportRenderer:
     """Renders views side by side into one off-screen buffer of the model and reads them back.
 
-    Created lazily (so envs pickle); the sensing settings of :class:`CameraRenderer` apply (no
-    shadows, reflections, skybox, textures or multisampling). Its GL resources are freed by
-    :meth:`close` or, when it is garbage-collected unclosed, by a finaliser; either way with its
-    own context current and the previously current one restored after
+    Created lazily (so envs pickle); by default the sensing settings of :class:`CameraRenderer`
+    apply (no shadows, reflections, skybox, textures or multisampling). Its GL resources are
+    freed by :meth:`close` or, when it is garbage-collected unclosed, by a finaliser; either way
+    with its own context current and the previously current one restored after
     (:func:`envs.sensing.rendering.free_gl`), so other renderers of the process keep theirs.
 
     Args:
