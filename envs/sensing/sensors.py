@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -24,10 +24,18 @@ from envs.sensing.foveated import FoveatedSensing
 from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
 from envs.sensing.stereo import StereoRig
 
-if TYPE_CHECKING:
-    from envs.scene import ArmScene
-
 Sighting = tuple[np.ndarray, np.ndarray]  # pixels (4,) px, visible (2,) bool
+
+
+class SensedScene(Protocol):
+    """What a sensor needs of a scene (:class:`envs.scene.ArmScene` has it; sensing sits below
+    the environments and does not import them)."""
+
+    stereo: StereoRig
+    sensed_site_id: int
+    marker_radius: float
+    target_radius: float
+    fovea: FoveatedSensing
 
 
 class Sensor(ABC):
@@ -120,7 +128,7 @@ class FoveatedSensor(Sensor):
 SENSING_MODES = ("render", "project", "foveated")
 
 
-def make_sensor(mode: str, scene: ArmScene) -> Sensor:
+def make_sensor(mode: str, scene: SensedScene) -> Sensor:
     """The sensor of ``mode`` (one of SENSING_MODES) for ``scene``."""
     if mode == "project":
         return ProjectSensor(scene.stereo, scene.sensed_site_id)
