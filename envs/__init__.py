@@ -1,7 +1,8 @@
 """Gymnasium environments and stereo camera sensing.
 
 Importing this package chooses the off-screen GL back-end (before mujoco is imported) and
-registers ``RiacsReach-v0``, ``PumaReach-v0`` and ``PumaTrack-v0`` with Gymnasium.
+registers ``RiacsReach-v0``, ``PumaReach-v0`` and ``PumaTrack-v0`` with Gymnasium. ``gym.make``
+returns the reach envs in :class:`envs.goal_env.GoalEnvWrapper`, which has ``compute_reward``.
 """
 
 from envs.sensing.rendering import configure_gl_backend
@@ -10,6 +11,7 @@ configure_gl_backend()
 
 import gymnasium as gym  # noqa: E402
 
+from envs.goal_env import GOAL_ENV_WRAPPER  # noqa: E402
 from envs.reach import MAX_EPISODE_STEPS, ReachEnv  # noqa: E402
 from envs.sensing.stereo import StereoRig  # noqa: E402
 from models.paths import N_STEPS  # noqa: E402
@@ -19,12 +21,14 @@ gym.register(
     entry_point="envs.reach:ReachEnv",
     kwargs={"robot": "riacs"},
     max_episode_steps=MAX_EPISODE_STEPS,
+    additional_wrappers=(GOAL_ENV_WRAPPER,),  # compute_reward on what gym.make returns
 )
 gym.register(
     id="PumaReach-v0",
     entry_point="envs.reach:ReachEnv",
     kwargs={"robot": "puma560"},
     max_episode_steps=MAX_EPISODE_STEPS,
+    additional_wrappers=(GOAL_ENV_WRAPPER,),  # compute_reward on what gym.make returns
 )
 gym.register(
     id="PumaTrack-v0",

@@ -15,12 +15,23 @@ from envs.perturb import Perturbation, PerturbationError, SceneEditor, random_si
 from envs.reward import GoalPoints, reward_terms, seen_flags
 from envs.robots import ROBOTS
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
+from envs.sensing.camera_images import CameraImages
 from envs.sensing.sensors import SENSING_MODES, make_sensor
 from envs.sensing.stereo import CameraPair
 from envs.sensing.triangulation import camera_floats
+from envs.step_info import StepInfo
 from envs.viewer import HumanViewer
 
 CONTROL_MODES = ("servo", "kinematic")
+#: Observation modes: the keys each puts into the observation dict.
+OBS_MODES = {
+    "state": ("observation", "achieved_goal", "desired_goal"),
+    "pixels": ("pixels_left", "pixels_right", "achieved_goal", "desired_goal"),
+    "state_pixels": ("observation", "pixels_left", "pixels_right", "achieved_goal", "desired_goal"),
+}
+#: The image keys, in the order of the stereo rig's cameras (left, right).
+PIXEL_KEYS = ("pixels_left", "pixels_right")
+PIXELS_WIDTH = PIXELS_HEIGHT = 84  # px, each camera's image with obs_mode "pixels"
 SUCCESS_THRESHOLD = 0.005  # m
 SETTLE_SPEED = 1e-3  # rad/s: the servo move ends when every joint is slower than this ...
 SETTLE_WINDOW = 0.02  # s ... for this long (not just at a turning point of an oscillation) ...
@@ -61,6 +72,7 @@ class ReachEnv(ArmScene):
     | ``observation`` | (J,) | rad | joint angles of the controlled joints |
     | ``achieved_goal`` | (4,) | px | sensed marker centre (u_left, v_left, u_right, v_right) |
     | ``desired_goal`` | (4,) | px | sensed target centre, same layout |
+    | ``pixels_left``, ``pixels_right`` | (H, W, 3) uint8 | | camera images (``obs_mode``) |
 
     Pixels are array-index coordinates (u right, v down) of 320×240 images (``width`` ×
     ``height``).
@@ -76,6 +88,16 @@ class ReachEnv(ArmScene):
     it would hide). A marker that is not seen by both cameras (occluded, cut by the image border)
     keeps its last valid sensing in the observation and ``info["visible"]`` is False; before a
     marker has ever been seen its entry is the image centre.
+
+    ``obs_mode="pixels"`` replaces ``observation`` by the two sensing cameras' images,
+    ``"state_pixels"`` adds them to it: ``pixels_left`` and ``pixels_right``, each
+    ``Box(0, 255, (pixels_height, pixels_width, 3), uint8)``, channel last, as Stable-Baselines3's
+    CNN policies (``MultiInputPolicy``) take them. They are the cameras' whole views as a real
+    camera would show them (floor, target, robot and marker; nothing the env sensed drawn on
+    them), at their own size: the goals stay the sensed pixels of the ``width`` × ``height``
+    sensing images, so goal relabelling (HER) works unchanged. One key per camera keeps each an
+    ordinary RGB image (for viewing, recording, augmentation) and gives each its own CNN. Both
+    are drawn into one off-screen buffer and read back at once after every reset and move.
 
     ## Reward
     ``reward = reward_distance + reward_unseen`` (m), computed from the observation alone, so that
@@ -144,6 +166,10 @@ class ReachEnv(ArmScene):
       (``mujoco.viewer.launch_passive``, a GLFW window) after every reset and move, at most
       ``render_fps`` frames a second; it needs a display (a desktop or ``xvfb-run``), works with
       ``MUJOCO_GL=egl`` and raises ``envs.viewer.DisplayUnavailableError`` without a display.
+    - ``obs_mode`` (``"state"``): ``"state"``, ``"pixels"`` or ``"state_pixels"`` (above).
+    - ``pixels_width`` (84): width of each camera image of the pixel modes, in pixels.
+    - ``pixels_height`` (84): their height. The cameras' vertical field of view is kept; a ratio
+      other than their 4:3 sees less (84 × 84: about three quarters) or more of the sides.
     - ``normalize`` (False): action, joints and goals in [-1, 1]. Off by default: radians and
       pixels are what the learners here and the baselines use, SB3's SAC/TD3 already rescale a
       bounded action space, and ``VecNormalize`` (or this option) fixes the observation scale.
@@ -163,6 +189,9 @@ class ReachEnv(ArmScene):
         height: int = IMAGE_HEIGHT,
         render_mode: str | None = None,
         normalize: bool = False,
+        obs_mode: str = "state",
+        pixels_width: int = PIXELS_WIDTH,
+        pixels_height: int = PIXELS_HEIGHT,
     ) -> None:
         if not isinstance(robot, str) or robot not in ROBOTS:
             raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
@@ -179,6 +208,12 @@ class ReachEnv(ArmScene):
                 f"unknown render_mode {render_mode!r}; valid: None, 'rgb_array', 'human'"
             )
         arguments.positive_number("success_threshold (m)", success_threshold)
+        if not isinstance(obs_mode, str) or obs_mode not in OBS_MODES:
+            raise ValueError(f"unknown obs_mode {obs_mode!r}; valid: {', '.join(OBS_MODES)}")
+        pixels_size = (
+            arguments.positive_int("pixels_width (px)", pixels_width),
+            arguments.positive_int("pixels_height (px)", pixels_height),
+        )
         super().__init__(robot, joints, width, height)
         width, height = self.image_width, self.image_height
         self.robot, self.joints, self.sensing, self.control = robot, joints, sensing, control
@@ -204,6 +239,13 @@ class ReachEnv(ArmScene):
         self.perturbation = Perturbation()
         self.sensor = make_sensor(sensing, self)
         self._view = CompositeView(self.model, height, width)
+        self.obs_mode = obs_mode
+        self.pixels_width, self.pixels_height = pixels_size
+        self._images = (
+            None
+            if obs_mode == "state"
+            else CameraImages(self.model, self.stereo.camera_names, *pixels_size[::-1])
+        )
 
         self._make_spaces(normalize)
         self._human: HumanViewer | None = None  # render_mode="human": the window, once opened
@@ -312,6 +354,8 @@ class ReachEnv(ArmScene):
     def close(self) -> None:
         super().close()
         self._view.close()
+        if self._images is not None:
+            self._images.close()
         if self._human is not None:
             self._human.close()
             self._human = None
@@ -475,15 +519,20 @@ class ReachEnv(ArmScene):
             joints = hi(lo(joints, self.joint_lower), self.joint_upper)
         achieved, desired = self._last["effector"], self._last["target"]  # (4,) px, in the image
         if not self.normalize:
-            return {
+            obs = {
                 "observation": joints,
                 "achieved_goal": achieved.copy(),
                 "desired_goal": desired.copy(),
             }
-        joints = hi(lo((joints - self._joint_mid) / self._joint_half, -1.0), 1.0)
-        goals = np.concatenate((achieved, desired))  # (8,) px
-        goals = hi(lo(goals / self._pixel_half - 1.0, -1.0), 1.0)
-        return {"observation": joints, "achieved_goal": goals[:4], "desired_goal": goals[4:]}
+        else:
+            joints = hi(lo((joints - self._joint_mid) / self._joint_half, -1.0), 1.0)
+            goals = np.concatenate((achieved, desired))  # (8,) px
+            goals = hi(lo(goals / self._pixel_half - 1.0, -1.0), 1.0)
+            obs = {"observation": joints, "achieved_goal": goals[:4], "desired_goal": goals[4:]}
+        if self._images is None:
+            return obs
+        obs.update(zip(PIXEL_KEYS, self._images.render(self.data), strict=True))
+        return {key: obs[key] for key in OBS_MODES[self.obs_mode]}
 
     def _make_spaces(self, normalize: bool) -> None:
         """Bounded spaces: joints by their ranges, goals by the image (or [-1, 1] each)."""
@@ -501,28 +550,36 @@ class ReachEnv(ArmScene):
             joints = box(self.joint_lower, self.joint_upper, dtype=np.float64)
             pixels = box(np.zeros(4), self._pixel_max[:4], dtype=np.float64)
             self.action_space = joints
-        self.observation_space = gym.spaces.Dict(
-            {"observation": joints, "achieved_goal": pixels, "desired_goal": pixels}
-        )
+        image = box(0, 255, (self.pixels_height, self.pixels_width, 3), dtype=np.uint8)
+        spaces = {
+            "observation": joints,
+            "pixels_left": image,
+            "pixels_right": image,
+            "achieved_goal": pixels,
+            "desired_goal": pixels,
+        }
+        self.observation_space = gym.spaces.Dict({k: spaces[k] for k in OBS_MODES[self.obs_mode]})
 
     def _goal_pixels(self, q: list) -> list:
         """Normalised goal coordinates (4 floats or arrays) -> pixels, elementwise."""
         return [(x + 1.0) * h for x, h in zip(q, self._pixel_half[:4].tolist(), strict=True)]
 
-    def _info(self, clipped: bool, settle_time: float) -> dict[str, Any]:
+    def _info(self, clipped: bool, settle_time: float) -> StepInfo:
         target = self.data.mocap_pos[0].copy()
         effector = self.sensed_point()
         distance = math.dist(target.tolist(), effector.tolist())
         du, dv, du2, dv2 = (self._last["effector"] - self._last["target"]).tolist()
-        return {
-            "distance": distance,
-            "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
-            "is_success": distance < self.success_threshold,
-            "visible": all(self._visible_target.tolist() + self._visible_effector.tolist()),
-            "visible_target": self._visible_target.copy(),
-            "visible_effector": self._visible_effector.copy(),
-            "target_pos": target,
-            "effector_pos": effector,
-            "clipped": clipped,
-            "settle_time": settle_time,
-        }
+        return StepInfo(
+            {
+                "distance": distance,
+                "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
+                "is_success": distance < self.success_threshold,
+                "visible": all(self._visible_target.tolist() + self._visible_effector.tolist()),
+                "visible_target": self._visible_target.copy(),
+                "visible_effector": self._visible_effector.copy(),
+                "target_pos": target,
+                "effector_pos": effector,
+                "clipped": clipped,
+                "settle_time": settle_time,
+            }
+        )

@@ -21,7 +21,7 @@ pytestmark = pytest.mark.skipif(
     find_spec("stable_baselines3") is None or find_spec("torch") is None,
     reason="the rl extra is not installed (pip install -e '.[rl]', or make test-rl)",
 )
-CHILD_TIMEOUT = 600.0  # s; the SB3 checks of all twelve reach settings take ~1 min on one core
+CHILD_TIMEOUT = 600.0  # s; the SB3 checks of every setting, twice, take a few minutes
 PRELUDE = "import torch, torch._dynamo\nimport json, warnings\nimport numpy as np\nimport envs\n"
 #: SB3's and Gymnasium's advice for the default action space (radians, float64); ``normalize``
 #: follows it.
@@ -42,6 +42,7 @@ def _child(code: str) -> object:
 
 
 def test_sb3_check_env_on_every_env_and_setting():
+    """On ``gym.make``'s env (its outer wrapper has ``compute_reward``) and on ``unwrapped``."""
     results = _child(
         """
         import gymnasium as gym
@@ -56,18 +57,21 @@ def test_sb3_check_env_on_every_env_and_setting():
         settings.append(("RiacsReach-v0", {"sensing": "project", "control": "servo",
                                            "normalize": True}))
         settings += [("PumaTrack-v0", {"sensing": s}) for s in ("project", "render")]
+        settings += [("RiacsReach-v0", {"sensing": "project", "control": "kinematic",
+                                        "obs_mode": mode}) for mode in ("pixels", "state_pixels")]
         out = []
         for env_id, kwargs in settings:
-            env = gym.make(env_id, **kwargs).unwrapped
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                check_env(env, warn=True, skip_render_check=True)
-            out.append([env_id, kwargs, sorted({str(w.message)[:200] for w in caught})])
-            env.close()
+            made = gym.make(env_id, **kwargs)
+            for env in (made, made.unwrapped):  # what gym.make returns, and the env inside
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    check_env(env, warn=True, skip_render_check=True)
+                out.append([env_id, kwargs, sorted({str(w.message)[:200] for w in caught})])
+            made.close()
         print(json.dumps(out))
         """
     )
-    assert len(results) == 15
+    assert len(results) == 2 * 17
     for env_id, kwargs, messages in results:
         other = [m for m in messages if not any(a in m for a in ADVICE)]
         assert other == [], (env_id, kwargs)  # check_env raised nothing and warns of nothing else
@@ -106,3 +110,39 @@ def test_sac_her_learns_from_rewards_the_env_computes():
     assert result["relabelled"] > 0  # precondition: HER replaced goals in this sample
     for gap in result["gap"]:  # float32 buffer: rewards are stored to ~1e-7 m
         assert gap == pytest.approx(0.0, abs=1e-6) or gap == pytest.approx(result["reach"], 1e-6)
+
+
+def test_sac_on_images_with_a_cnn_policy():
+    """200 steps of SAC with ``MultiInputPolicy`` on both camera images and the goals: SB3 gives
+    each image its own CNN, and the images reach the replay buffer as the env made them (SB3
+    transposes them to channel first)."""
+    result = _child(
+        """
+        import gymnasium as gym
+        from stable_baselines3 import SAC
+        from stable_baselines3.common.torch_layers import NatureCNN
+
+        env = gym.make("RiacsReach-v0", sensing="project", control="kinematic",
+                       obs_mode="pixels")
+        model = SAC("MultiInputPolicy", env, seed=0, device="cpu", learning_starts=100,
+                    batch_size=16, buffer_size=400)
+        model.learn(200)
+        extractors = model.policy.actor.features_extractor.extractors
+        buffer = model.replay_buffer
+        probe = gym.make("RiacsReach-v0", sensing="project", control="kinematic",
+                         obs_mode="pixels")
+        first, _ = probe.reset(seed=0)
+        print(json.dumps({
+            "steps": model.num_timesteps,
+            "cnn": sorted(k for k, m in extractors.items() if isinstance(m, NatureCNN)),
+            "dtype": str(buffer.observations["pixels_left"].dtype),
+            # SB3 stores images channel first (VecTransposeImage)
+            "first_image_stored": bool(np.array_equal(np.moveaxis(
+                buffer.observations["pixels_left"][0, 0], 0, -1), first["pixels_left"])),
+        }))
+        """
+    )
+    assert result["steps"] == 200
+    assert result["cnn"] == ["pixels_left", "pixels_right"]
+    assert result["dtype"] == "uint8"
+    assert result["first_image_stored"]  # SAC seeds the env as this probe does

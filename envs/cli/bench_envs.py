@@ -6,6 +6,14 @@ RL loop.
     .venv/bin/python scripts/bench.py envs [same options]
     .venv/bin/python scripts/bench_envs.py --rl-only [--rl-steps 20000] [--rl-rounds 5]
         [--rl-clock thread]
+    .venv/bin/python scripts/bench_envs.py --agents-only [--sb3-steps 600]
+
+Agents (also in the full run): image observations (``obs_mode="pixels"``, two 84×84 cameras,
+project sensing, kinematic control) in steps/s against ``Reacher-v5`` in
+``gymnasium.wrappers.AddRenderObservation`` at 84×84 (its image replaces its observation); the
+``render()`` frame's milliseconds (wall and this process's CPU time, which leaves out other
+processes' load); and, with the rl extra, SAC + HER against plain SAC in time per env step, in
+alternating rounds of the same run (``copy_info_dict=True``, one torch thread).
 
 RL loop: the loop of an RL library, on ``gym.make`` envs (their registered time limits and
 wrappers), random actions, ``reset()`` whenever an episode ends (every 4 moves for the reach
@@ -27,6 +35,7 @@ import json
 import os
 import time
 from collections.abc import Callable
+from importlib.util import find_spec
 from pathlib import Path
 
 import gymnasium as gym
@@ -254,6 +263,110 @@ def format_table(results: dict) -> str:
     return "\n".join(lines)
 
 
+PIXELS = 84  # px, width and height of each camera image, and of the peer's rendered image
+RENDER_FRAMES = 30
+SB3_ENV = "RiacsReach-v0"
+
+
+def time_pixel_steps(n_steps: int, seed: int) -> dict:
+    """Steps/s of the reach envs with two 84×84 camera images against Reacher-v5 rendering one
+    84×84 image as its observation, alternating env by env in one run."""
+    makers = {
+        env_id: lambda e=env_id: gym.make(e, obs_mode="pixels", **RL_SETTING).unwrapped
+        for env_id in RL_ENVS
+    }
+    makers[PEER_ID] = lambda: gym.wrappers.AddRenderObservation(
+        gym.make(PEER_ID, render_mode="rgb_array", width=PIXELS, height=PIXELS).unwrapped,
+        render_only=True,
+    )
+    rates = {env_id: time_steps(make(), n_steps, seed) for env_id, make in makers.items()}
+    peer = rates[PEER_ID]
+    return {env_id: {"steps_per_s": r, "ratio_to_peer": r / peer} for env_id, r in rates.items()}
+
+
+def time_render(frames: int, seed: int) -> dict:
+    """Milliseconds per ``render()`` frame (rgb_array, default size): wall and process CPU."""
+    out = {}
+    for env_id in RL_ENVS:
+        env = gym.make(env_id, render_mode="rgb_array", **RL_SETTING)
+        env.reset(seed=seed)
+        env.render()  # starts the renderer (not timed)
+        wall = cpu = 0.0
+        for _ in range(frames):
+            env.step(env.action_space.sample())
+            w, c = time.perf_counter(), time.process_time()
+            frame = env.render()
+            wall += time.perf_counter() - w
+            cpu += time.process_time() - c
+        env.close()
+        out[env_id] = {
+            "shape": list(frame.shape),
+            "ms_wall": wall / frames * MS_PER_S,
+            "ms_cpu": cpu / frames * MS_PER_S,
+        }
+    return out
+
+
+def time_sac_her(n_steps: int, rounds: int, seed: int) -> dict | None:
+    """ms of process CPU time per env step of SAC + HER and of SAC (learning after 100 steps,
+    one gradient step per env step), alternating; None without the rl extra."""
+    if find_spec("stable_baselines3") is None:
+        print("SAC + HER: skipped, the rl extra is not installed (pip install -e '.[rl]')")
+        return None
+    import torch
+    from stable_baselines3 import SAC, HerReplayBuffer
+
+    torch.set_num_threads(1)
+    her = {
+        "replay_buffer_class": HerReplayBuffer,
+        "replay_buffer_kwargs": {"n_sampled_goal": 4, "copy_info_dict": True},
+    }
+    totals = {"sac": 0.0, "sac_her": 0.0}
+    for _ in range(rounds):
+        for name, extra in (("sac", {}), ("sac_her", her)):
+            env = gym.make(SB3_ENV, **RL_SETTING)
+            model = SAC(
+                "MultiInputPolicy", env, seed=seed, device="cpu", learning_starts=100,
+                buffer_size=10 * n_steps, **extra,
+            )  # fmt: skip
+            start = time.process_time()
+            model.learn(n_steps)
+            totals[name] += time.process_time() - start
+            env.close()
+    ms = {name: t / (n_steps * rounds) * MS_PER_S for name, t in totals.items()}
+    return {"env": SB3_ENV, "ms_per_step": ms, "ratio": ms["sac_her"] / ms["sac"]}
+
+
+def format_agents(results: dict) -> str:
+    lines = [f"image observations (2 × {PIXELS}×{PIXELS} px) against {PEER_ID} + "
+             f"AddRenderObservation ({PIXELS}×{PIXELS}), same run:"]  # fmt: skip
+    for env_id, r in results["pixels"].items():
+        lines.append(
+            f"  {env_id:<15} {r['steps_per_s']:>8.1f} steps/s  ×peer {r['ratio_to_peer']:.2f}"
+        )
+    for env_id, r in results["render"].items():
+        lines.append(
+            f"render() {env_id} {r['shape'][1]}×{r['shape'][0]}: {r['ms_wall']:.1f} ms wall, "
+            f"{r['ms_cpu']:.1f} ms CPU per frame"
+        )
+    sb3 = results.get("sac_her")
+    if sb3 is not None:
+        ms = sb3["ms_per_step"]
+        lines.append(
+            f"SAC + HER {ms['sac_her']:.2f} ms vs SAC {ms['sac']:.2f} ms CPU per env step "
+            f"({sb3['env']}): ×{sb3['ratio']:.2f}"
+        )
+    return "\n".join(lines)
+
+
+def measure_agents(steps: int, sb3_steps: int, sb3_rounds: int, seed: int) -> dict:
+    return {
+        "pixels": time_pixel_steps(steps, seed),
+        "render": time_render(RENDER_FRAMES, seed),
+        "sac_her": time_sac_her(sb3_steps, sb3_rounds, seed),
+    }
+
+
 def main(argv: list[str] | None = None) -> dict:
     parser = cli.parser(__doc__)
     parser.add_argument(
@@ -274,17 +387,33 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument("--rl-only", action="store_true", help="only the RL loop")
     parser.add_argument(
+        "--agents-only", action="store_true", help="only images, render() and SAC + HER"
+    )
+    parser.add_argument(
+        "--sb3-steps", type=cli.positive_int, default=600, help="env steps per SAC run"
+    )
+    parser.add_argument(
+        "--sb3-rounds", type=cli.positive_int, default=2, help="alternating SAC / HER rounds"
+    )
+    parser.add_argument(
         "--rl-clock", choices=tuple(CLOCKS), default="wall", help="RL loop: wall or thread time"
     )
     parser.add_argument("--json", type=Path, default=None, help="also write the results here")
     args = parser.parse_args(argv)
-    results = (
-        {} if args.rl_only else measure(args.steps, args.peer_steps, args.sense_repeats, args.seed)
-    )
-    if results:
+    if args.rl_only and args.agents_only:
+        parser.error("choose one of --rl-only and --agents-only")
+    if not args.rl_only and find_spec("torch") is not None:
+        import torch._dynamo  # noqa: F401  (before anything renders: see compare_rl)
+    results: dict = {}
+    if not (args.rl_only or args.agents_only):
+        results = measure(args.steps, args.peer_steps, args.sense_repeats, args.seed)
         print(format_table(results))
-    results["rl_loop"] = time_rl_loop(args.rl_steps, args.rl_rounds, args.seed, args.rl_clock)
-    print(format_rl_table(results["rl_loop"]))
+    if not args.rl_only:
+        results["agents"] = measure_agents(args.steps, args.sb3_steps, args.sb3_rounds, args.seed)
+        print(format_agents(results["agents"]))
+    if not args.agents_only:
+        results["rl_loop"] = time_rl_loop(args.rl_steps, args.rl_rounds, args.seed, args.rl_clock)
+        print(format_rl_table(results["rl_loop"]))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(results, indent=2) + "\n")

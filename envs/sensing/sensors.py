@@ -27,6 +27,17 @@ from envs.sensing.stereo import StereoRig
 Sighting = tuple[np.ndarray, np.ndarray]  # pixels (4,) px, visible (2,) bool
 
 
+class SensedScene(Protocol):
+    """What a sensor needs of a scene (:class:`envs.scene.ArmScene` has it; sensing sits below
+    the environments and does not import them)."""
+
+    stereo: StereoRig
+    sensed_site_id: int
+    marker_radius: float
+    target_radius: float
+    fovea: FoveatedSensing
+
+
 class Sensor(ABC):
     """Senses the target and the effector marker of one scene."""
 
@@ -115,16 +126,6 @@ class FoveatedSensor(Sensor):
 
 #: Sensing modes, by the name an env's ``sensing`` argument takes.
 SENSING_MODES = ("render", "project", "foveated")
-
-
-class SensedScene(Protocol):
-    """What a sensor needs of a scene (``envs.scene.ArmScene`` has it)."""
-
-    stereo: StereoRig
-    sensed_site_id: int
-    marker_radius: float
-    target_radius: float
-    fovea: FoveatedSensing
 
 
 def make_sensor(mode: str, scene: SensedScene) -> Sensor:

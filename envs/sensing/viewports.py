@@ -17,6 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.sensing.rendering import (
+    GROUP_MARKER,
+    GROUP_ROBOT,
+    GROUP_SCENE,
+    GROUP_TARGET,
     SENSING_OFF_FLAGS,
     check_gl_allowed,
     free_gl,
@@ -32,6 +36,10 @@ SPHERE_SLICES = 36
 SPHERE_STACKS = 18
 #: mjtGeom values of the capsule and the cylinder (bounded by capsules, see _bounding_capsules).
 mjGEOM_CAPSULE, mjGEOM_CYLINDER = 3, 5
+#: Geom groups a camera sees when it looks at the whole scene (floor, target, robot, marker).
+VISIBLE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
+#: mjtGeom value of the plane.
+mjGEOM_PLANE = 0
 #: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
 SQUARE_PIXEL_TOL = 1e-5
 
@@ -88,23 +96,55 @@ class View:
     center: np.ndarray  # (2,) px of the base image
     window: Window
 
+    @classmethod
+    def whole(cls, camera: str, height: int, width: int) -> View:
+        """The camera's whole image at ``height`` × ``width`` px through its own frustum (the
+        model's field of view, vertical; intrinsics are not needed and are NaN)."""
+        nan = np.full(2, np.nan)
+        return cls(camera, nan, nan, Window.full(height, width))
+
 
 class ViewportRenderer:
     """Renders views side by side into one off-screen buffer of the model and reads them back.
 
-    Created lazily (so envs pickle); the sensing settings of :class:`CameraRenderer` apply (no
-    shadows, reflections, skybox, textures or multisampling). Its GL resources are freed by
-    :meth:`close` or, when it is garbage-collected unclosed, by a finaliser; either way with its
-    own context current and the previously current one restored after
+    Created lazily (so envs pickle); by default the sensing settings of :class:`CameraRenderer`
+    apply (no shadows, reflections, skybox, textures or multisampling). Its GL resources are
+    freed by :meth:`close` or, when it is garbage-collected unclosed, by a finaliser; either way
+    with its own context current and the previously current one restored after
     (:func:`envs.sensing.rendering.free_gl`), so other renderers of the process keep theirs.
 
     Args:
         model: the MuJoCo model; its off-screen buffer is enlarged, if needed, to
             (max_height, max_width) when the context is made.
+        off_flags: the ``mjtRndFlag`` names turned off (default: shadows, reflections and the
+            skybox, which the sensing cameras do not need).
+        textures: whether textures are drawn (the sensing cameras see flat colours).
+        own_headlight: whether each view is lit by its own camera's headlight, as a renderer
+            of that camera alone would light it; else every view by the first view's (the
+            sensing cameras, whose colour detection was set up that way).
+        plane_grid: grid spacing (m) planes are drawn with, if coarser than the model's (None:
+            the model's). A plane is drawn as a grid of quads for its per-vertex lighting, fixed
+            when the context is made; the scenes' fine grid costs about half of a whole view on
+            software GL, and a coarse one changes only the shading of the floor's highlight.
+        facets: slices and stacks of the built-in meshes (spheres, capsules, cylinders); None:
+            the model's (``<visual><quality>``). Default: the sensing cameras' SPHERE_SLICES ×
+            SPHERE_STACKS.
     """
 
-    def __init__(self, model, max_height: int, max_width: int) -> None:
+    def __init__(
+        self,
+        model,
+        max_height: int,
+        max_width: int,
+        off_flags: Sequence[str] = SENSING_OFF_FLAGS,
+        textures: bool = False,
+        own_headlight: bool = False,
+        plane_grid: float | None = None,
+        facets: tuple[int, int] | None = (SPHERE_SLICES, SPHERE_STACKS),
+    ) -> None:
         self.model, self.max_height, self.max_width = model, max_height, max_width
+        self.off_flags, self.textures = tuple(off_flags), textures
+        self.own_headlight, self.plane_grid, self.facets = own_headlight, plane_grid, facets
         self._gl = self._context = self._scene = None
         self._free: weakref.finalize | None = None  # frees _context and _gl, once
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
@@ -119,7 +159,12 @@ class ViewportRenderer:
         saved = (g.offwidth, g.offheight, q.offsamples, q.numslices, q.numstacks)
         g.offwidth, g.offheight = max(g.offwidth, self.max_width), max(g.offheight, self.max_height)
         q.offsamples = 0
-        q.numslices, q.numstacks = SPHERE_SLICES, SPHERE_STACKS  # see SPHERE_SLICES
+        if self.facets is not None:
+            q.numslices, q.numstacks = self.facets  # see SPHERE_SLICES
+        planes = self.model.geom_type == mjGEOM_PLANE
+        grids = self.model.geom_size[planes, 2].copy()  # m
+        if self.plane_grid is not None:
+            self.model.geom_size[planes, 2] = np.maximum(grids, self.plane_grid)
         try:
             gl = mujoco.GLContext(g.offwidth, g.offheight)
             gl.make_current()
@@ -128,6 +173,7 @@ class ViewportRenderer:
             raise gl_start_error(exc) from exc
         finally:
             g.offwidth, g.offheight, q.offsamples, q.numslices, q.numstacks = saved
+            self.model.geom_size[planes, 2] = grids
         mark_gl_started()
         # The finaliser holds both until it runs, so neither is freed on its own, in the wrong
         # order or under another renderer's context (see free_gl).
@@ -135,7 +181,7 @@ class ViewportRenderer:
         self._gl, self._context = gl, context
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
-        for flag in SENSING_OFF_FLAGS:
+        for flag in self.off_flags:
             self._scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
 
     def _option(self, groups: tuple[int, ...]):
@@ -144,7 +190,7 @@ class ViewportRenderer:
         option = self._options.get(groups)
         if option is None:
             option = mujoco.MjvOption()
-            option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = 0
+            option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = int(self.textures)
             option.geomgroup[:] = 0
             for g in groups:
                 option.geomgroup[g] = 1
@@ -175,9 +221,10 @@ class ViewportRenderer:
         return self._geoms[key]
 
     def render(
-        self, data, views: Sequence[View], groups: Sequence[int]
-    ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """RGB (h, w, 3) uint8 and depth (h, w) m of each view, rows top first."""
+        self, data, views: Sequence[View], groups: Sequence[int], depth: bool = True
+    ) -> list[tuple[np.ndarray, np.ndarray | None]]:
+        """RGB (h, w, 3) uint8 and depth (h, w) m of each view, rows top first; with
+        ``depth=False`` only the colours are read back (depth None)."""
         import mujoco
 
         if self._gl is None:
@@ -202,6 +249,8 @@ class ViewportRenderer:
         for k, view in enumerate(views):
             if k > 0:
                 mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
+                if self.own_headlight:
+                    mujoco.mjv_makeLights(self.model, data, scene)
             hidden = []
             if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
                 _set_frustum(scene, view)
@@ -215,9 +264,13 @@ class ViewportRenderer:
                 geom.type = kind
             x += w.width
         rgb = np.empty((height, x, 3), dtype=np.uint8)
-        raw = np.empty((height, x), dtype=np.float32)
+        raw = np.empty((height, x), dtype=np.float32) if depth else None
         mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), self._context)
-        rgb, raw = rgb[::-1], raw[::-1]  # GL rows are bottom first
+        rgb = rgb[::-1]  # GL rows are bottom first
+        if raw is None:
+            return [(rgb[height - v.window.height :, c - v.window.width : c], None)
+                    for v, c in zip(views, np.cumsum(widths).tolist(), strict=True)]  # fmt: skip
+        raw = raw[::-1]
         near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
         out, x = [], 0
         for view in views:
