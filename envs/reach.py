@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -203,6 +204,9 @@ class ReachEnv(ArmScene):
 
         self._make_spaces(normalize)
         self._human: HumanViewer | None = None  # render_mode="human": the window, once opened
+        #: Called with the simulated seconds since the move began after every physics step of a
+        #: servo move (videos sample the motion with it); it may read ``data``, never write it.
+        self.on_physics_step: Callable[[float], None] | None = None
         self._cameras_read: tuple | None = None  # the rig's cameras when last converted ...
         self._goal_points: GoalPoints | None = None  # ... to floats for the reward
         centre = np.tile([(width - 1) / 2, (height - 1) / 2], 2)
@@ -404,9 +408,12 @@ class ReachEnv(ArmScene):
         self.data.ctrl[self._ctrl] = command
         start = self.data.time
         slow_since = None  # s, when every joint last became slower than SETTLE_SPEED
+        on_step = self.on_physics_step
         while True:
             mujoco.mj_step(self.model, self.data)
             elapsed = self.data.time - start
+            if on_step is not None:
+                on_step(elapsed)
             if np.max(np.abs(self.data.qvel)) >= SETTLE_SPEED:
                 slow_since = None
             elif slow_since is None:
