@@ -66,9 +66,12 @@ def test_evaluate_compares_controllers_on_the_same_targets(run, tmp_path, capsys
     assert analytic["mean_mm"][0] < 1e-6  # exact IK with exact projection: no error at all
     random = summary["controllers"][2]
     assert random["mean_mm"][0] > summary["controllers"][0]["mean_mm"][0]
-    for plot in ("learning_curve", "error_histogram", "lattice_left_camera", "reached_3d",
-                 "error_map_coarse", "error_map_final"):  # fmt: skip
+    for plot in ("error_histogram", "lattice_left_camera", "error_vectors", "error_map_coarse",
+                 "error_map_final"):  # fmt: skip
         assert_drawn_png(tmp_path / f"{plot}.png")
+    # The training's own held-out evaluations: in the run folder, not among this evaluation's.
+    assert_drawn_png(run / "learning_curve.png")
+    assert not (tmp_path / "learning_curve.png").exists()
 
 
 def test_train_rejects_a_bad_lattice_with_a_clear_message():

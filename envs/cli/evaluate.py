@@ -147,16 +147,24 @@ def format_table(rows: list[dict]) -> str:
 
 
 def write_plots(env, som: VisuomotorSOM, result, run: Path | None, out: Path) -> None:
+    """The evaluation's figures into ``out``; the learning curve of a training run (its own
+    held-out evaluations, in the training's settings) into the run folder."""
     base = env.unwrapped
+    name = type(som).__name__
     if run is not None and (run / METRICS_FILE).is_file():
         rows = [json.loads(r) for r in (run / METRICS_FILE).read_text().splitlines()]
-        plots.learning_curve(rows, base.reach, out / "learning_curve.png")
-    plots.error_histogram(result, out / "error_histogram.png")
+        trained = Trainer.stored_config(run)
+        during = plots.subject(base.robot, trained.sensing, trained.control, name)
+        plots.learning_curve(rows, base.reach, run / "learning_curve.png", subject=during)
+    subject = plots.subject(base.robot, base.sensing, base.control, name)
+    plots.error_histogram(result, out / "error_histogram.png", subject=subject)
     image = render_camera(base.model, base.data, "cam_left", base.stereo.height, base.stereo.width)
-    plots.lattice_in_image(som.w, som.lattice, image, out / "lattice_left_camera.png")
-    plots.reached_3d(result, out / "reached_3d.png")
-    plots.error_map(result, out / "error_map_coarse.png", move=0)
-    plots.error_map(result, out / "error_map_final.png", move=result.moves - 1)
+    plots.lattice_in_image(
+        som.w, som.lattice, image, out / "lattice_left_camera.png", subject=subject
+    )
+    plots.error_vectors(result, out / "error_vectors.png", subject=subject)
+    plots.error_map(result, out / "error_map_coarse.png", move=0, subject=subject)
+    plots.error_map(result, out / "error_map_final.png", move=result.moves - 1, subject=subject)
 
 
 def run() -> None:
