@@ -203,7 +203,9 @@ class ReachEnv(ArmScene):
         self._view = CompositeView(self.model, height, width)
 
         self._make_spaces(normalize)
-        self._human: HumanViewer | None = None  # render_mode="human": the window, once opened
+        self._human: HumanViewer | None = None  # render_mode="human": the window
+        if render_mode == "human":  # opens while the first reset gets ready
+            self._human = HumanViewer(self.metadata["render_fps"])
         #: Called with the simulated seconds since the move began after every physics step of a
         #: servo move (videos sample the motion with it); it may read ``data``, never write it.
         self.on_physics_step: Callable[[float], None] | None = None
@@ -225,6 +227,8 @@ class ReachEnv(ArmScene):
             options, RESET_OPTIONS, "{'keep_arm': bool, 'perturb': Perturbation | dict | None}"
         )
         super().reset(seed=seed)
+        if self._human is not None:
+            self._human.start(self.model, self.data)
         if "perturb" in options:
             self.perturb(options["perturb"])
         target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
@@ -299,7 +303,7 @@ class ReachEnv(ArmScene):
 
     def render(self) -> np.ndarray | None:
         if self.render_mode == "human":
-            if self._human is None:
+            if self._human is None:  # closed before
                 self._human = HumanViewer(self.metadata["render_fps"])
             self._human.show(self.model, self.data)
             return None
