@@ -152,3 +152,39 @@ def test_viewer_camera_frames_the_arm_and_the_workspace(robot):
     assert np.all(np.abs(np.arctan2(rel @ up, depth)) < half_v)
     assert np.all(np.abs(np.arctan2(rel @ right, depth)) < half_h)
     env.close()
+
+
+def test_video_program_stacks_two_controllers_on_the_same_targets(tmp_path):
+    import cv2
+
+    from envs.cli import video
+
+    out = video.main(["--env", "RiacsReach-v0", "--controller", "analytic", "--compare", "random",
+                      "--sensing", "project", "--control", "kinematic", "--trials", "1",
+                      "--fine-moves", "0", "--fps", "10", "--out", str(tmp_path / "v.mp4")])  # fmt: skip
+    capture = cv2.VideoCapture(str(out))
+    # Target shown, then the coarse move: interpolation and hold, at 10 frames a second.
+    expected = (
+        round(HOLD_SECONDS * 10) + round(INTERPOLATION_SECONDS * 10) + round(HOLD_SECONDS * 10)
+    )
+    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == expected
+    assert int(capture.get(cv2.CAP_PROP_FRAME_WIDTH)) == 3 * 600  # three 600-pixel panels
+    assert int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT)) > 2 * 450  # two films, one above the other
+    capture.release()
+
+
+def test_docs_gif_loops_with_the_written_frames(tmp_path, monkeypatch):
+    import imageio.v3 as iio
+
+    from envs.cli import docs_media
+
+    colours = [(230, 30, 30), (30, 230, 30), (30, 30, 230)]
+    frames = [np.full((8, 12, 3), c, dtype=np.uint8) for c in colours]
+    path = docs_media.write_gif(frames, tmp_path / "a" / "x.gif", fps=5.0)
+    back = iio.imread(path)
+    assert back.shape[0] == 3
+    np.testing.assert_allclose(back[:, 4, 6, :3], colours, atol=8)
+    assert iio.immeta(path, index=0).get("loop") == 0  # loops forever
+    monkeypatch.setattr(docs_media, "MAX_BYTES", 10)
+    with pytest.raises(ValueError, match="over 10"):
+        docs_media.write_gif(frames, tmp_path / "y.gif", fps=5.0)
