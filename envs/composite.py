@@ -35,8 +35,8 @@ GAP_FRACTION = 0.025  # free centre of the crosshair, so that the target shows
 CIRCLE_FRACTION = 0.03  # radius of the detection circle
 LINE_FRACTION = 1 / 240  # line thickness
 TEXT_FRACTION = 1 / 480  # OpenCV font scale per pixel of panel height
-#: Render flags films turn off: shadows and reflections make a frame ~10 times slower to draw
-#: in software GL; textures and the sky stay.
+#: Render flags films turn off: shadows and reflections make a frame several times slower to
+#: draw in software GL (docs/decisions.md); textures and the sky stay.
 LEAN_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION")
 #: The zoom inset: magnification, and the side of the magnified square (fraction of the height).
 ZOOM, ZOOM_FRACTION = 3, 0.42

@@ -8,10 +8,10 @@ default) and the human viewer work together in one process. Without a display GL
 and MuJoCo's viewer would then end the whole process from its thread; :func:`open_viewer` checks
 first and raises :class:`DisplayUnavailableError` instead.
 
-Opening the window takes a second or more (GLFW, a GL context, MuJoCo's fonts, shadow maps and
-offscreen buffers), and the env's first reset as long again (the numba kernels load, the
-off-screen back-end starts): :meth:`HumanViewer.start` opens the window in a thread while the
-env gets ready, and the first :meth:`HumanViewer.show` waits for it. The window opens on a free
+Opening the window (GLFW, a GL context, MuJoCo's fonts, shadow maps and offscreen buffers) and
+the env's first reset (the numba kernels load, the off-screen back-end starts) each take a
+while: :meth:`HumanViewer.start` opens the window in a thread while the env gets ready, and the
+first :meth:`HumanViewer.show` waits for it. The window opens on a free
 camera framing the whole arm and its workspace (:func:`frame_scene`), not on MuJoCo's default.
 """
 
@@ -33,8 +33,8 @@ CLOSE_TIMEOUT = 10.0  # s to wait for the window's thread to end
 #: Free-camera distance in units of the scene's ``<statistic extent>`` (the arm with its
 #: workspace fills about two thirds of the window).
 VIEW_DISTANCE = 1.45
-#: Shadow map side (pixels) of the window: MuJoCo's 2048 (PUMA scene) or 4096 (default) costs
-#: most of a second to set up in software GL, for no visible gain at window size.
+#: Shadow map side (pixels) of the window: the scenes' larger maps are slow to set up in
+#: software GL, for no visible gain at window size.
 WINDOW_SHADOW_SIZE = 1024
 _HELP = (
     "render_mode='human' opens a window with MuJoCo's viewer (GLFW) and needs a display: run it "

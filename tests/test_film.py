@@ -161,7 +161,8 @@ def test_video_program_stacks_two_controllers_on_the_same_targets(tmp_path):
 
     out = video.main(["--env", "RiacsReach-v0", "--controller", "analytic", "--compare", "random",
                       "--sensing", "project", "--control", "kinematic", "--trials", "1",
-                      "--fine-moves", "0", "--fps", "10", "--out", str(tmp_path / "v.mp4")])  # fmt: skip
+                      "--fine-moves", "0", "--fps", "10",
+                      "--out", str(tmp_path / "v.mp4")])  # fmt: skip
     capture = cv2.VideoCapture(str(out))
     # Target shown, then the coarse move: interpolation and hold, at 10 frames a second.
     expected = (
