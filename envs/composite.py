@@ -121,6 +121,7 @@ class CompositeView:
         panels = []
         for k, name in enumerate(("cam_left", "cam_right")):
             view = np.ascontiguousarray(self._cameras.render(data, name, VISIBLE_GROUPS))
+            self._label(view, name)  # first: the sensing drawn over it stays whole
             pick = slice(2 * k, 2 * k + 2)
             points = [self.to_panel(p[pick]) for p in trail if np.all(np.isfinite(p[pick]))]
             self._trail(view, points)
@@ -133,7 +134,6 @@ class CompositeView:
                 cv2.circle(view, _int(effector), radius, DETECTION, self._line, cv2.LINE_AA)
             if self.zoom and np.all(np.isfinite(target)):
                 draw_inset(view, target, self._text)
-            self._label(view, name)
             panels.append(view)
         overview = np.ascontiguousarray(self._overview.render(data, "overview", VISIBLE_GROUPS))
         self._label(overview, "overview")
