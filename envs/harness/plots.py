@@ -174,6 +174,8 @@ def error_vectors_figure(result: Evaluation, *, subject: str) -> Figure:
             t[:, i], t[:, j], gain * error[:, i], gain * error[:, j], mm,
             cmap="viridis", norm=norm, angles="xy", scale_units="xy", scale=1, width=0.004,
         )  # fmt: skip
+        tips = t[:, [i, j]] + gain * error[:, [i, j]]  # (n, 2) m: the axes show whole arrows
+        ax.update_datalim(tips)
         ax.scatter(t[stopped, i], t[stopped, j], label="stopped early", **STOPPED_STYLE)
         ax.set_xlabel("xyz"[i] + " [m]")
         ax.set_ylabel("xyz"[j] + " [m]")
