@@ -1,6 +1,16 @@
-"""The human-facing frame of a reach env: both camera views and an overview, side by side."""
+"""The human-facing frame of a reach env: both camera views and an overview, side by side.
+
+Sensing happens in small images (320×240 by default), but people watch frames on large screens:
+the panels may be drawn larger than the sensing images (pixels are scaled onto them), and every
+overlay (target crosshair, detected marker, the trail of earlier detections, labels) is sized in
+proportion to the panel, so that it stays legible when the frame is shown at full-HD size. Where
+the arm is small in the camera images (the RIACS cameras see a large part of the unit cube), an
+inset magnifies the neighbourhood of the target.
+"""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import cv2
 import numpy as np
@@ -8,13 +18,24 @@ import numpy as np
 from envs.sensing.viewports import VISIBLE_GROUPS, View, ViewportRenderer
 
 PANELS = ("cam_left", "cam_right", "overview")
-#: Render flags turned off: shadows and reflections cost most on software GL; the skybox and
-#: textures (the floor's checker) stay.
+CROSSHAIR = (255, 40, 40)  # RGB: target, as sensed at reset
+DETECTION = (40, 255, 40)  # RGB: effector marker, as detected after the last move
+TRAIL = (255, 230, 0)  # RGB: the marker's earlier detections in this trial
+WHITE, BLACK = (255, 255, 255), (0, 0, 0)
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+#: Overlay sizes as fractions of the panel height.
+CROSSHAIR_FRACTION = 0.06  # half-length of a crosshair arm
+GAP_FRACTION = 0.025  # free centre of the crosshair, so that the target shows
+CIRCLE_FRACTION = 0.03  # radius of the detection circle
+LINE_FRACTION = 1 / 240  # line thickness
+TEXT_FRACTION = 1 / 480  # OpenCV font scale per pixel of panel height
+#: Render flags turned off: shadows and reflections make a frame several times slower to draw
+#: in software GL (docs/decisions.md); the skybox and textures (the floor's checker) stay.
 FRAME_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION")
 #: Grid spacing (m) the floor is drawn with (see ViewportRenderer's plane_grid).
 PLANE_GRID = 0.5
-CROSSHAIR = (255, 60, 60)  # target, as sensed at reset
-DETECTION = (60, 255, 60)  # effector marker, as detected after the last move
+#: The zoom inset: magnification, and the side of the magnified square (fraction of the height).
+ZOOM, ZOOM_FRACTION = 3, 0.42
 
 
 class CompositeView:
@@ -24,10 +45,26 @@ class CompositeView:
     or multisampling, the floor with a coarse lighting grid, and read back at once, colours
     only: a frame for people at a video's pace on software GL. The renderer starts at the
     first frame.
+
+    Args:
+        model: the scene's MjModel.
+        height, width: size of each panel in pixels.
+        sensing_size: (width, height) of the sensing images whose pixel coordinates
+            :meth:`render` receives; default: the panel size.
+        zoom: draw an inset magnifying the target's neighbourhood in each camera view.
     """
 
-    def __init__(self, model, height: int, width: int) -> None:
-        self.height, self.width = height, width
+    def __init__(
+        self,
+        model,
+        height: int,
+        width: int,
+        sensing_size: tuple[int, int] | None = None,
+        zoom: bool = False,
+    ) -> None:
+        self.height, self.width, self.zoom = height, width, zoom
+        sensing_width = width if sensing_size is None else sensing_size[0]
+        self._scale = width / sensing_width  # panel pixels per sensing pixel
         self._renderer = ViewportRenderer(
             model,
             height,
@@ -39,36 +76,105 @@ class CompositeView:
             facets=None,  # the model's
         )
         self._views = [View.whole(name, height, width) for name in PANELS]
+        self._line = max(1, round(height * LINE_FRACTION))
+        self._text = height * TEXT_FRACTION
 
-    def render(self, data, target_px: np.ndarray, effector_px: np.ndarray) -> np.ndarray:
-        """(height, 3·width, 3) uint8; NaN effector pixels (not visible) are not drawn."""
+    def to_panel(self, px: np.ndarray) -> np.ndarray:
+        """Sensing-image pixel coordinates (any shape) -> panel pixel coordinates (centres of
+        pixels map onto centres)."""
+        return (np.asarray(px, dtype=float) + 0.5) * self._scale - 0.5
+
+    def render(
+        self,
+        data,
+        target_px: np.ndarray,
+        effector_px: np.ndarray,
+        trail: Sequence[np.ndarray] = (),
+    ) -> np.ndarray:
+        """(height, 3·width, 3) uint8 RGB: the :meth:`panels` side by side."""
+        return np.concatenate(self.panels(data, target_px, effector_px, trail), axis=1)
+
+    def panels(
+        self,
+        data,
+        target_px: np.ndarray,
+        effector_px: np.ndarray,
+        trail: Sequence[np.ndarray] = (),
+    ) -> list[np.ndarray]:
+        """The left view, the right view and the overview, (height, width, 3) uint8 RGB each.
+
+        Args:
+            data: the MjData to draw.
+            target_px, effector_px: (4,) sensing pixels (left u, v, right u, v); NaN entries
+                (not seen) are not drawn.
+            trail: earlier detections (4,) each, joined by a line in their order.
+        """
         images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
         panels = []
         for k, name in enumerate(PANELS[:2]):
             view = np.ascontiguousarray(images[k][0])
-            _crosshair(view, target_px[2 * k : 2 * k + 2])
-            if np.all(np.isfinite(effector_px[2 * k : 2 * k + 2])):
-                centre = tuple(round(float(c)) for c in effector_px[2 * k : 2 * k + 2])
-                cv2.circle(view, centre, 7, DETECTION, 1, cv2.LINE_AA)
-            cv2.putText(
-                view,
-                name,
-                (6, self.height - 8),
-                cv2.FONT_HERSHEY_SIMPLEX,
-                0.45,
-                (255, 255, 255),
-                1,
-                cv2.LINE_AA,
-            )
+            self._label(view, name)  # first: the sensing drawn over it stays whole
+            pick = slice(2 * k, 2 * k + 2)
+            points = [self.to_panel(p[pick]) for p in trail if np.all(np.isfinite(p[pick]))]
+            self._trail(view, points)
+            target = self.to_panel(target_px[pick])
+            if np.all(np.isfinite(target)):
+                self._crosshair(view, target)
+            effector = self.to_panel(effector_px[pick])
+            if np.all(np.isfinite(effector)):
+                radius = round(self.height * CIRCLE_FRACTION)
+                cv2.circle(view, _int(effector), radius, DETECTION, self._line, cv2.LINE_AA)
+            if self.zoom and np.all(np.isfinite(target)):
+                draw_inset(view, target, self._text)
             panels.append(view)
-        panels.append(images[2][0])
-        return np.concatenate(panels, axis=1)
+        overview = np.ascontiguousarray(images[2][0])
+        self._label(overview, "overview")
+        panels.append(overview)
+        return panels
+
+    def _crosshair(self, image: np.ndarray, uv: np.ndarray) -> None:
+        u, v = _int(uv)
+        size, gap = round(self.height * CROSSHAIR_FRACTION), round(self.height * GAP_FRACTION)
+        for du, dv in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+            start = (u + du * gap, v + dv * gap)
+            end = (u + du * size, v + dv * size)
+            cv2.line(image, start, end, BLACK, self._line + 2, cv2.LINE_AA)
+            cv2.line(image, start, end, CROSSHAIR, self._line, cv2.LINE_AA)
+
+    def _trail(self, image: np.ndarray, points: list[np.ndarray]) -> None:
+        if len(points) > 1:
+            line = np.array([_int(p) for p in points], dtype=np.int32)
+            cv2.polylines(image, [line], False, TRAIL, self._line, cv2.LINE_AA)
+        for p in points:
+            cv2.circle(image, _int(p), self._line + 1, TRAIL, -1, cv2.LINE_AA)
+
+    def _label(self, image: np.ndarray, text: str) -> None:
+        origin = (round(self.height * 0.02), self.height - round(self.height * 0.03))
+        thickness = max(1, round(self._text * 2))
+        cv2.putText(image, text, origin, FONT, self._text, BLACK, thickness + 2, cv2.LINE_AA)
+        cv2.putText(image, text, origin, FONT, self._text, WHITE, thickness, cv2.LINE_AA)
 
     def close(self) -> None:
         self._renderer.close()
 
 
-def _crosshair(image: np.ndarray, uv: np.ndarray, size: int = 9) -> None:
-    u, v = (round(float(c)) for c in uv)
-    cv2.line(image, (u - size, v), (u + size, v), CROSSHAIR, 1, cv2.LINE_AA)
-    cv2.line(image, (u, v - size), (u, v + size), CROSSHAIR, 1, cv2.LINE_AA)
+def draw_inset(image: np.ndarray, centre: np.ndarray, text_scale: float) -> None:
+    """Magnify the square about ``centre`` (u, v pixels) ZOOM times into the top-right corner
+    of ``image`` (in place), framed in white, and frame the magnified square in the image."""
+    height, width = image.shape[:2]
+    side = round(height * ZOOM_FRACTION)  # of the inset
+    half = side // (2 * ZOOM)  # of the source square
+    u = int(np.clip(round(float(centre[0])), half, width - half))
+    v = int(np.clip(round(float(centre[1])), half, height - half))
+    source = image[v - half : v + half, u - half : u + half].copy()
+    inset = cv2.resize(source, (2 * half * ZOOM, 2 * half * ZOOM), interpolation=cv2.INTER_LINEAR)
+    cv2.rectangle(image, (u - half, v - half), (u + half, v + half), WHITE, 1, cv2.LINE_AA)
+    h, w = inset.shape[:2]
+    image[: h + 4, width - w - 4 :] = WHITE
+    image[2 : h + 2, width - w - 2 : width - 2] = inset
+    origin = (width - w + 4, h - 6)
+    cv2.putText(image, f"{ZOOM}x", origin, FONT, text_scale, WHITE, 1, cv2.LINE_AA)
+
+
+def _int(uv: np.ndarray) -> tuple[int, int]:
+    return round(float(uv[0])), round(float(uv[1]))

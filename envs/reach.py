@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -248,7 +249,12 @@ class ReachEnv(ArmScene):
         )
 
         self._make_spaces(normalize)
-        self._human: HumanViewer | None = None  # render_mode="human": the window, once opened
+        self._human: HumanViewer | None = None  # render_mode="human": the window
+        if render_mode == "human":  # opens while the first reset gets ready
+            self._human = HumanViewer(self.metadata["render_fps"])
+        #: Called with the simulated seconds since the move began after every physics step of a
+        #: servo move (videos sample the motion with it); it may read ``data``, never write it.
+        self.on_physics_step: Callable[[float], None] | None = None
         self._cameras_read: tuple | None = None  # the rig's cameras when last converted ...
         self._goal_points: GoalPoints | None = None  # ... to floats for the reward
         centre = np.tile([(width - 1) / 2, (height - 1) / 2], 2)
@@ -268,6 +274,8 @@ class ReachEnv(ArmScene):
         )
         change = self._checked(options["perturb"]) if "perturb" in options else None
         super().reset(seed=seed)
+        if self._human is not None:
+            self._human.start(self.model, self.data)
         if change is not None:
             self._apply(change)
         target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
@@ -343,7 +351,7 @@ class ReachEnv(ArmScene):
 
     def render(self) -> np.ndarray | None:
         if self.render_mode == "human":
-            if self._human is None:
+            if self._human is None:  # closed before
                 self._human = HumanViewer(self.metadata["render_fps"])
             self._human.show(self.model, self.data)
             return None
@@ -474,9 +482,12 @@ class ReachEnv(ArmScene):
         self.data.ctrl[self._ctrl] = command
         start = self.data.time
         slow_since = None  # s, when every joint last became slower than SETTLE_SPEED
+        on_step = self.on_physics_step
         while True:
             mujoco.mj_step(self.model, self.data)
             elapsed = self.data.time - start
+            if on_step is not None:
+                on_step(elapsed)
             if np.max(np.abs(self.data.qvel)) >= SETTLE_SPEED:
                 slow_since = None
             elif slow_since is None:

@@ -7,6 +7,12 @@ back-end (EGL or OSMesa) the env's cameras render with, so ``MUJOCO_GL=egl`` (th
 default) and the human viewer work together in one process. Without a display GLFW cannot start,
 and MuJoCo's viewer would then end the whole process from its thread; :func:`open_viewer` checks
 first and raises :class:`DisplayUnavailableError` instead.
+
+Opening the window (GLFW, a GL context, MuJoCo's fonts, shadow maps and offscreen buffers) and
+the env's first reset (the numba kernels load, the off-screen back-end starts) each take a
+while: :meth:`HumanViewer.start` opens the window in a thread while the env gets ready, and the
+first :meth:`HumanViewer.show` waits for it. The window opens on a free
+camera framing the whole arm and its workspace (:func:`frame_scene`), not on MuJoCo's default.
 """
 
 from __future__ import annotations
@@ -24,6 +30,12 @@ from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP
 SHOWN_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
 N_GEOM_GROUPS = 6  # mjNGROUP
 CLOSE_TIMEOUT = 10.0  # s to wait for the window's thread to end
+#: Free-camera distance in units of the scene's ``<statistic extent>`` (the arm with its
+#: workspace fills about two thirds of the window).
+VIEW_DISTANCE = 1.45
+#: Shadow map side (pixels) of the window: the scenes' larger maps are slow to set up in
+#: software GL, for no visible gain at window size.
+WINDOW_SHADOW_SIZE = 1024
 _HELP = (
     "render_mode='human' opens a window with MuJoCo's viewer (GLFW) and needs a display: run it "
     "on a desktop, under a virtual X server (xvfb-run -a python ..., Debian package xvfb), or use "
@@ -53,7 +65,22 @@ def open_viewer(model, data):
     with handle.lock():
         for group in range(N_GEOM_GROUPS):
             handle.opt.geomgroup[group] = group in SHOWN_GROUPS
+        frame_scene(handle.cam, model)
     return handle, [t for t in threading.enumerate() if t not in before]
+
+
+def frame_scene(camera, model) -> None:
+    """Point a ``mujoco.MjvCamera`` as a free camera at the scene's ``<statistic center>`` (the
+    scenes set it between the arm and its workspace) from ``VIEW_DISTANCE`` times its ``extent``,
+    at the scene's ``<global azimuth elevation>``."""
+    import mujoco
+
+    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+    camera.fixedcamid = -1
+    camera.lookat[:] = model.stat.center
+    camera.distance = VIEW_DISTANCE * float(model.stat.extent)
+    camera.azimuth = float(model.vis.global_.azimuth)
+    camera.elevation = float(model.vis.global_.elevation)
 
 
 def _display_opens() -> bool:
@@ -76,18 +103,43 @@ def _display_opens() -> bool:
 
 
 class HumanViewer:
-    """The window of one env, opened at the first :meth:`show`, at most ``fps`` frames a second
-    (one frame per move, so that a person can follow the moves)."""
+    """The window of one env, at most ``fps`` frames a second (one frame per move, so that a
+    person can follow the moves).
+
+    :meth:`start` begins to open the window in a thread; the first :meth:`show` waits for it
+    (and raises what opening raised, e.g. :class:`DisplayUnavailableError`).
+    """
 
     def __init__(self, fps: float) -> None:
         self.fps = fps
         self.handle = None
         self._threads: list[threading.Thread] = []  # the viewer's, joined at close
+        self._opener: threading.Thread | None = None
+        self._error: BaseException | None = None  # raised by the opener
         self._last = 0.0  # time.monotonic() of the last frame, s
+
+    def start(self, model, data) -> None:
+        """Begin opening the window on ``model``/``data`` (once)."""
+        if self._opener is not None or self.handle is not None:
+            return
+        model.vis.quality.shadowsize = min(model.vis.quality.shadowsize, WINDOW_SHADOW_SIZE)
+
+        def open_window() -> None:
+            try:
+                self.handle, self._threads = open_viewer(model, data)
+            except BaseException as exc:  # handed to the first show()
+                self._error = exc
+
+        self._opener = threading.Thread(target=open_window, name="open-viewer", daemon=True)
+        self._opener.start()
 
     def show(self, model, data) -> None:
         if self.handle is None:
-            self.handle, self._threads = open_viewer(model, data)
+            self.start(model, data)
+            self._opener.join()
+            if self._error is not None:
+                error, self._error, self._opener = self._error, None, None
+                raise error
         if not self.handle.is_running():  # the user closed the window
             return
         wait = self._last + 1.0 / self.fps - time.monotonic()
@@ -97,6 +149,9 @@ class HumanViewer:
         self._last = time.monotonic()
 
     def close(self) -> None:
+        if self._opener is not None:
+            self._opener.join()
+            self._opener = None
         if self.handle is not None:
             self.handle.close()
             # The window's thread must end before the interpreter exits: GLFW's exit handler

@@ -90,12 +90,12 @@ def test_an_evaluation_built_without_moves_made_counts_every_trial_complete():
     assert e.summary()["complete_trials"] == 2
 
 
-@pytest.mark.parametrize("name", ["error_map", "error_histogram", "reached_3d"])
+@pytest.mark.parametrize("name", ["error_map", "error_histogram", "error_vectors"])
 def test_plots_are_written_where_asked(tmp_path, name):
     """The files; what they show (every trial, stopped ones included) is in test_figures.py."""
     from envs.harness import plots
 
     result = evaluate(_ScriptedEnv(), _Still(), trials=4, fine_moves=2)
-    path = getattr(plots, name)(result, tmp_path / "new folder" / f"{name}.png")
+    path = getattr(plots, name)(result, tmp_path / "new folder" / f"{name}.png", subject="arm")
     assert path == tmp_path / "new folder" / f"{name}.png"
     assert_drawn_png(path)

@@ -5,6 +5,7 @@ code's own numbers)."""
 from __future__ import annotations
 
 import math
+import re
 
 import matplotlib
 
@@ -38,6 +39,10 @@ DISTANCES = np.array(
 MOVES_MADE = np.array([3, 1, 2, 3])
 
 
+#: The subject line of the figures below (:func:`plots.subject`).
+SUBJECT = plots.subject("puma560", "foveated", "servo", "VisuomotorSOM")
+
+
 @pytest.fixture(autouse=True)
 def _close_figures():
     yield
@@ -59,7 +64,8 @@ def test_learning_curve_has_a_line_per_move_and_a_point_per_evaluation():
         {"trial": 200, "mean_mm": [30.0, 5.0, 1.0]},
         {"trial": 400, "mean_mm": [20.0, 3.0, 0.5]},
     ]
-    ax = plots.learning_curve_figure(rows, reach=0.9).axes[0]
+    fig = plots.learning_curve_figure(rows, reach=0.9, subject=SUBJECT)
+    ax = fig.axes[0]
     lines = ax.get_lines()
     assert [line.get_label() for line in lines] == ["after coarse", "after fine 1", "after fine 2"]
     for k, line in enumerate(lines):
@@ -68,16 +74,23 @@ def test_learning_curve_has_a_line_per_move_and_a_point_per_evaluation():
     assert ax.get_yscale() == "log"
     assert ax.get_xlabel() == "training trials"
     assert ax.get_ylabel() == "mean distance to target [mm]"
-    assert ax.get_title() == "Learning curve (held-out targets)"
+    assert ax.get_title() == f"Learning curve: held-out evaluations during training\n{SUBJECT}"
+    assert fig.get_layout_engine() is not None  # constrained: no label over another
+
+
+def test_subject_names_the_arm_the_settings_and_the_controller():
+    assert SUBJECT == "PUMA 560 · sensing=foveated, control=servo · VisuomotorSOM"
+    assert plots.subject("riacs", "project", "kinematic", "analytic").startswith("RIACS 3-DOF")
 
 
 def test_error_histogram_counts_every_trial_after_every_move(scripted):
-    ax = plots.error_histogram_figure(scripted).axes[0]
+    ax = plots.error_histogram_figure(scripted, subject=SUBJECT).axes[0]
     assert len(ax.containers) == 3  # one histogram per move
     for bars in ax.containers:
         assert sum(bar.get_height() for bar in bars) == len(DISTANCES)
     stopped = int((MOVES_MADE < 3).sum())
-    assert ax.get_title() == f"Errors on 4 held-out targets ({stopped} stopped early, counted)"
+    title = f"Errors on 4 held-out targets ({stopped} stopped early, counted)\n{SUBJECT}"
+    assert ax.get_title() == title
     assert ax.get_xscale() == "log" and ax.get_xlabel() == "distance to target [mm]"
     low, high = (
         ax.containers[0][0].get_x(),
@@ -92,25 +105,42 @@ def test_error_histogram_has_no_figure_without_two_positive_errors(scripted):
     import dataclasses
 
     zero = dataclasses.replace(scripted, distances=np.zeros_like(scripted.distances))
-    assert plots.error_histogram_figure(zero) is None
+    assert plots.error_histogram_figure(zero, subject=SUBJECT) is None
 
 
-def test_reached_3d_draws_every_target_and_every_end_point(scripted):
-    ax = plots.reached_3d_figure(scripted).axes[0]
-    by_label = {c.get_label(): np.column_stack(c._offsets3d) for c in ax.collections}
-    assert set(by_label) == {"target", "reached", "stopped early"}
-    assert len(by_label["target"]) == len(DISTANCES)
-    complete = MOVES_MADE == 3
-    # _ScriptedEnv puts the effector at (d, d, d) for the distance d where the trial ended.
+def test_error_vectors_draw_an_arrow_per_trial_from_target_to_end_point(scripted):
+    fig = plots.error_vectors_figure(scripted, subject=SUBJECT)
+    title = fig.get_suptitle()
+    assert title.endswith(f"\n{SUBJECT}") and "(4 targets)" in title
+    gain = float(re.search(r"arrows ×([0-9.e+]+)", title).group(1))
+    # _ScriptedEnv: every target at the origin, the end point at (d, d, d) for the distance d
+    # where the trial ended.
     ended = DISTANCES[np.arange(4), MOVES_MADE - 1]
-    np.testing.assert_allclose(by_label["reached"], np.repeat(ended[complete, None], 3, axis=1))
-    np.testing.assert_allclose(by_label["stopped early"], np.repeat(ended[~complete, None], 3, 1))
-    assert (ax.get_xlabel(), ax.get_ylabel(), ax.get_zlabel()) == ("x [m]", "y [m]", "z [m]")
+    stopped = MOVES_MADE < 3
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    assert [ax.get_title() for ax in panels] == ["x-y", "x-z", "y-z"]
+    for ax in panels:
+        arrows = next(c for c in ax.collections if isinstance(c, matplotlib.quiver.Quiver))
+        assert len(arrows.U) == len(DISTANCES)
+        np.testing.assert_allclose(arrows.U, gain * ended)
+        np.testing.assert_allclose(arrows.V, gain * ended)
+        np.testing.assert_allclose(arrows.get_array(), ended * math.sqrt(3) * 1e3)
+        crosses = next(c for c in ax.collections if c.get_label() == "stopped early")
+        assert len(crosses.get_offsets()) == stopped.sum()
+        assert crosses.get_sizes()[0] >= 80  # large enough to see
+        assert ax.get_xlabel().endswith("[m]") and ax.get_ylabel().endswith("[m]")
+    assert fig.axes[-1].get_ylabel() == "error after the last move [mm]"
+
+
+@pytest.mark.parametrize(("gain", "rounded"), [(0.3, 1.0), (1.0, 1.0), (37.0, 20.0), (512, 500)])
+def test_arrow_gain_is_rounded_down_to_one_two_or_five(gain, rounded):
+    assert plots._round_gain(gain) == rounded
 
 
 @pytest.mark.parametrize("move", [0, 1, 2])
 def test_error_map_draws_every_trial_in_three_projections(scripted, move):
-    fig = plots.error_map_figure(scripted, move=move)
+    fig = plots.error_map_figure(scripted, move=move, subject=SUBJECT)
+    assert fig.get_suptitle().endswith(f"(4 targets)\n{SUBJECT}")
     panels = [ax for ax in fig.axes if ax.get_title()]
     assert [ax.get_title() for ax in panels] == ["x-y", "x-z", "y-z"]
     made = MOVES_MADE > move
@@ -118,6 +148,7 @@ def test_error_map_draws_every_trial_in_three_projections(scripted, move):
         circles, crosses = ax.collections
         assert len(circles.get_offsets()) == made.sum()
         assert len(crosses.get_offsets()) == (~made).sum()
+        assert crosses.get_sizes()[0] >= 80  # stopped trials: large crosses
         colours = np.concatenate([circles.get_array(), crosses.get_array()])
         expected = np.concatenate([DISTANCES[made, move], DISTANCES[~made, move]]) * 1e3
         np.testing.assert_allclose(colours, expected)
@@ -129,12 +160,12 @@ def test_lattice_in_image_draws_every_lattice_edge_through_the_chosen_camera():
     lattice = (3, 2, 2)
     w = np.arange(12 * 4, dtype=float).reshape(12, 4)  # neuron k: (4k, 4k+1, 4k+2, 4k+3)
     image = np.zeros((50, 60, 3))
-    ax = plots.lattice_in_image_figure(w, lattice, image, camera=1).axes[0]
+    ax = plots.lattice_in_image_figure(w, lattice, image, camera=1, subject=SUBJECT).axes[0]
+    assert ax.get_title() == f"Lattice 3x2x2 in camera right\n{SUBJECT}"
     *edges, neurons = ax.get_lines()
     # Lines along axis a: one per point of the other two axes, with lattice[a] points each.
     assert sorted(len(e.get_xdata()) for e in edges) == sorted([3] * 4 + [2] * 6 + [2] * 6)
     np.testing.assert_array_equal(_points(neurons), w[:, 2:4])  # right camera: columns 2, 3
-    assert ax.get_title() == "Lattice 3x2x2 in camera right"
     assert ax.get_xlim() == (0, 60) and ax.get_ylim() == (50, 0)
 
 

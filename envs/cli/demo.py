@@ -1,6 +1,6 @@
 """The main job, end to end and headless: train the visuomotor SOM on both arms, evaluate it
 with exact projection and kinematic moves and with rendered (foveated) cameras and servo moves,
-and write plots, a video and camera images.
+and write plots, videos (the map beside the exact IK) and camera images.
 
     .venv/bin/python scripts/demo.py --out runs/demo          (what `make demo` runs; ~3 minutes)
 """
@@ -12,33 +12,43 @@ import time
 from pathlib import Path
 
 import cv2
+import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli import evaluate, train, video
-from envs.sensing.rendering import render_camera
-from models import available_models, load_model
+from envs.composite import CompositeView, draw_inset
+from envs.reach import ReachEnv
+from models import available_models
 
-CAMERAS = ("cam_left", "cam_right", "overview")
+CAMERAS = ("cam_left", "cam_right", "overview")  # in the order of CompositeView.panels
+SCENE_IMAGE_SIZE = (640, 480)  # width, height of each scene image, pixels
+SCENE_SEED = 3  # the target of the scene images
 
 
 def scene_images(out: Path) -> list[Path]:
-    """Both sensing cameras and the overview of every scene at its home pose, as PNG."""
-    import mujoco
-
+    """Both sensing cameras and the overview of every scene, at the home pose with a target drawn
+    by ``reset(seed=SCENE_SEED)``, as PNG: what the cameras see (target and green marker), with
+    an inset magnifying the marker where the arm is small in the camera views (RIACS)."""
     paths = []
     for name in cli.progress(available_models(), "scene images", "scene"):
-        model = load_model(name)
-        data = mujoco.MjData(model)
-        mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
-        mujoco.mj_forward(model, data)
-        for camera in CAMERAS:
-            height, width = (480, 640) if camera == "overview" else (240, 320)
-            image = render_camera(model, data, camera, height, width)
+        env = ReachEnv(robot=name, sensing="project", control="kinematic")
+        _, info = env.reset(seed=SCENE_SEED)  # home pose, a target in the workspace
+        width, height = SCENE_IMAGE_SIZE
+        sensing_size = (env.image_width, env.image_height)
+        view = CompositeView(env.model, height, width, sensing_size)
+        marker = env.stereo.project(info["effector_pos"][None])[0]  # (4,) sensing pixels
+        nothing = np.full(4, np.nan)  # no overlays: the picture shows what the camera sees
+        panels = view.panels(env.data, nothing, nothing)
+        for k, (camera, image) in enumerate(zip(CAMERAS, panels, strict=True)):
+            if name == "riacs" and k < 2:
+                draw_inset(image, view.to_panel(marker[2 * k : 2 * k + 2]), height / 480)
             path = out / f"{name}_{camera}.png"
             path.parent.mkdir(parents=True, exist_ok=True)
             cv2.imwrite(str(path), image[..., ::-1])
             paths.append(path)
+        view.close()
+        env.close()
     return paths
 
 
@@ -66,15 +76,17 @@ def main(argv: list[str] | None = None) -> None:
                                      "--out", str(run / f"eval_{sensing}_{control}")]
                                     + (["--no-plots"] if sensing == "project" else []))  # fmt: skip
             results[f"{short}_{sensing}_{control}"] = summary["controllers"][0]
-    video.main(["--env", "PumaReach-v0", "--controller", str(args.out / "puma" / "som.npz"),
-                "--trials", "5", "--out", str(args.out / "puma_som.mp4")])  # fmt: skip
-    video.main(["--env", "RiacsReach-v0", "--controller", str(args.out / "riacs" / "som.npz"),
-                "--trials", "5", "--out", str(args.out / "riacs_som.mp4")])  # fmt: skip
+    for env_id, short in (("PumaReach-v0", "puma"), ("RiacsReach-v0", "riacs")):
+        # The map above, the exact IK below, on the same targets, filmed in real time.
+        video.main(["--env", env_id, "--controller", str(args.out / short / "som.npz"),
+                    "--compare", "analytic", "--trials", "5",
+                    "--out", str(args.out / f"{short}_som.mp4")])  # fmt: skip
     (args.out / "summary.json").write_text(json.dumps(results, indent=1))
     print(f"\nDone in {time.time() - start:.0f} s. Under {args.out}/:")
     print("  scenes/*.png                 both cameras and an overview of each scene")
-    print("  puma/, riacs/                trained maps (som.npz), metrics.jsonl, eval plots")
-    print("  puma_som.mp4, riacs_som.mp4  rendered evaluation videos (coarse, then fine moves)")
+    print("  puma/, riacs/                trained maps (som.npz), metrics.jsonl, learning curve")
+    print("  puma/eval_*/, riacs/eval_*/  evaluation tables and plots (rendered sensing, servo)")
+    print("  puma_som.mp4, riacs_som.mp4  the map (top) and exact IK (below) moving, real time")
     print("  summary.json                 errors after each move (all trials), both arms")
 
 

@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> dict:
     plotted = not args.no_plots and specs[0].endswith(".npz")
     metrics = None  # read before any work, so that a damaged log stops nothing half-way
     if plotted and args.run is not None and (args.run / METRICS_FILE).is_file():
-        metrics = read_metrics(args.run / METRICS_FILE)
+        metrics = read_metrics(check_writable(args.run) / METRICS_FILE)  # its learning curve
     env = gym.make(env_id, sensing=sensing, control=control, width=width, height=height)
 
     rows, results = [], {}
@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     if plotted:
         som = VisuomotorSOM.load(specs[0])
-        write_plots(env, som, results[rows[0]["controller"]], metrics, out)
+        write_plots(env, som, results[rows[0]["controller"]], metrics, args.run, out)
         print(f"plots in {out}")
     env.close()
     return summary
@@ -184,18 +184,31 @@ def format_table(rows: list[dict]) -> str:
 
 
 def write_plots(
-    env, som: VisuomotorSOM, result: Evaluation, metrics: list[dict] | None, out: Path
+    env,
+    som: VisuomotorSOM,
+    result: Evaluation,
+    metrics: list[dict] | None,
+    run: Path | None,
+    out: Path,
 ) -> None:
-    """The plots of the module's docstring into ``out`` (the learning curve if ``metrics``)."""
+    """The evaluation's figures into ``out``; the learning curve of the training run ``run``
+    (its ``metrics`` rows: its own held-out evaluations, in the training's settings) into the
+    run folder."""
     base = env.unwrapped
-    if metrics is not None:
-        plots.learning_curve(metrics, base.reach, out / "learning_curve.png")
-    plots.error_histogram(result, out / "error_histogram.png")
+    name = type(som).__name__
+    if metrics is not None and run is not None:
+        trained = Trainer.stored_config(run)
+        during = plots.subject(base.robot, trained.sensing, trained.control, name)
+        plots.learning_curve(metrics, base.reach, run / "learning_curve.png", subject=during)
+    subject = plots.subject(base.robot, base.sensing, base.control, name)
+    plots.error_histogram(result, out / "error_histogram.png", subject=subject)
     image = render_camera(base.model, base.data, "cam_left", base.stereo.height, base.stereo.width)
-    plots.lattice_in_image(som.w, som.lattice, image, out / "lattice_left_camera.png")
-    plots.reached_3d(result, out / "reached_3d.png")
-    plots.error_map(result, out / "error_map_coarse.png", move=0)
-    plots.error_map(result, out / "error_map_final.png", move=result.moves - 1)
+    plots.lattice_in_image(
+        som.w, som.lattice, image, out / "lattice_left_camera.png", subject=subject
+    )
+    plots.error_vectors(result, out / "error_vectors.png", subject=subject)
+    plots.error_map(result, out / "error_map_coarse.png", move=0, subject=subject)
+    plots.error_map(result, out / "error_map_final.png", move=result.moves - 1, subject=subject)
 
 
 def run() -> None:

@@ -1,6 +1,10 @@
 """Rendered evaluation video: a controller's coarse and fine moves on a reach env, as mp4.
 
-.venv/bin/python scripts/video.py --env PumaReach-v0 --controller random --out runs/video/random.mp4
+Servo moves are filmed as they happen (30 frames a second of simulated time by default; --speed
+2 plays them twice as fast); kinematic moves are shown as a short interpolation, marked as such.
+With --compare, a second controller makes the same trials on the same targets, drawn below.
+
+.venv/bin/python scripts/video.py --env PumaReach-v0 --controller runs/puma --compare analytic
 """
 
 from __future__ import annotations
@@ -11,50 +15,60 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import REACH_ENVS, SPECS, controller_spec, make_controller
+from envs.cli.controllers import NAMED, REACH_ENVS, SPECS, controller_spec, make_controller
+from envs.harness.film import VIDEO_FPS, TrialFilm, side_by_side
 from envs.harness.run_folder import check_writable
-from envs.harness.trials import Trial, run_trial
-from envs.harness.video import VideoWriter, annotate
+from envs.harness.video import VideoWriter
 from envs.reach import SENSING_MODES
 
-#: Video frames per move, so that a viewer can follow each move at a low frame rate.
-FRAMES_PER_MOVE = 3
+
+def controller_name(spec: str, controller) -> str:
+    return spec if spec in NAMED else f"{type(controller).__name__} ({Path(spec).name})"
 
 
 def main(argv: list[str] | None = None) -> Path:
     parser = cli.parser(__doc__)
     parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENVS)
     parser.add_argument("--controller", required=True, type=controller_spec, help=SPECS)
+    parser.add_argument(
+        "--compare", type=controller_spec, help="a second controller on the same targets"
+    )
     parser.add_argument("--trials", type=cli.positive_int, default=4)
     parser.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
     parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
     parser.add_argument("--sensing", default="foveated", choices=SENSING_MODES)
     parser.add_argument("--control", default="servo", choices=("servo", "kinematic"))
-    parser.add_argument("--fps", type=cli.positive_float, default=6.0)
+    parser.add_argument("--fps", type=cli.positive_float, default=VIDEO_FPS)
+    parser.add_argument(
+        "--speed", type=cli.positive_float, default=1.0, help="simulated s per s of video"
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/video/eval.mp4"))
     args = parser.parse_args(argv)
     check_writable(args.out.parent)  # a read-only folder or a full disk, before any work
 
-    env = gym.make(args.env, sensing=args.sensing, control=args.control, render_mode="rgb_array")
-    controller = make_controller(args.controller, env, args.seed)
-    title = (
-        f"{args.env}   {type(controller).__name__}   sensing={args.sensing}  control={args.control}"
-    )
-    env.reset(seed=args.seed)
+    specs = [args.controller] + ([args.compare] if args.compare else [])
+    runs = []  # (env, controller, film) per controller; the same seed gives the same targets
+    for spec in specs:
+        env = gym.make(args.env, sensing=args.sensing, control=args.control)
+        controller = make_controller(spec, env, args.seed)
+        speed = "real time" if args.speed == 1 else f"{args.speed:g}x real time"
+        title = (
+            f"{args.env}  {controller_name(spec, controller)}  sensing={args.sensing}  "
+            f"control={args.control}  ({speed})"
+        )
+        env.reset(seed=args.seed)
+        runs.append((env, controller, TrialFilm(env, title, args.fps, args.speed)))
     with VideoWriter(args.out, args.fps) as video:
         for i in cli.progress(range(args.trials), "video", "trial"):
-
-            def record(k: int, trial: Trial, i: int = i) -> None:
-                move = "target" if k < 0 else ("coarse move" if k == 0 else f"fine move {k}")
-                error = "" if k < 0 else f"   error {trial.distances[k] * 1e3:.1f} mm"
-                lines = [title, f"trial {i + 1}/{args.trials}   {move}{error}"]
-                frame = annotate(env.render(), lines)
-                for _ in range(FRAMES_PER_MOVE):
-                    video.write(frame)
-
-            run_trial(env, controller, args.fine_moves, on_move=record)
-    env.close()
-    print(f"wrote {video.frames} frames to {args.out}")
+            label = f"trial {i + 1}/{args.trials}"
+            films = [film.trial(c, args.fine_moves, label)[1] for _, c, film in runs]
+            for frame in side_by_side(films):
+                video.write(frame)
+    for env, _, film in runs:
+        film.close()
+        env.close()
+    seconds = video.frames / args.fps
+    print(f"wrote {video.frames} frames ({seconds:.1f} s at {args.fps:g} fps) to {args.out}")
     return args.out
 
 

@@ -18,12 +18,14 @@ CODEC, PIXEL_FORMAT = "libx264", "yuv420p"  # H.264 in the colour format every p
 
 
 def annotate(frame: np.ndarray, lines: Sequence[str], scale: float = 0.5) -> np.ndarray:
-    """The RGB frame under a dark band holding the text lines (white)."""
+    """The RGB frame under a dark band holding the text lines (white); ``scale`` is OpenCV's
+    font scale (0.5: 22-pixel lines), the strokes thicken with it."""
     line_height = round(22 * scale / 0.5)
+    thickness = max(1, round(scale * 1.6))
     band = np.full((line_height * len(lines) + 8, frame.shape[1], 3), 30, dtype=frame.dtype)
     for i, text in enumerate(lines):
         y = line_height * (i + 1) - 2
-        cv2.putText(band, text, (6, y), FONT, scale, (255, 255, 255), 1, cv2.LINE_AA)
+        cv2.putText(band, text, (6, y), FONT, scale, (255, 255, 255), thickness, cv2.LINE_AA)
     return np.concatenate([band, frame], axis=0)
 
 

@@ -321,10 +321,23 @@ class CameraRenderer:
         return {**self.__dict__, "_renderer": None, "_options": {}}
 
 
-def render_camera(model, data, camera: str, height: int = 240, width: int = 320) -> np.ndarray:
-    """One RGB frame of a named camera with the fast settings."""
+#: Geom groups of pictures for people: the scene, the target, the robot and the effector marker
+#: (MuJoCo's default options draw groups 0-2 only, which leaves the marker out).
+PICTURE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
+
+
+def render_camera(
+    model,
+    data,
+    camera: str,
+    height: int = 240,
+    width: int = 320,
+    groups: Sequence[int] = PICTURE_GROUPS,
+) -> np.ndarray:
+    """One RGB frame (height, width, 3) uint8 of a named camera with the fast settings, showing
+    ``groups`` (default: everything a person should see, the green marker included)."""
     renderer = CameraRenderer(model, height, width)
     try:
-        return renderer.render(data, camera)
+        return renderer.render(data, camera, groups)
     finally:
         renderer.close()
