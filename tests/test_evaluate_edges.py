@@ -132,7 +132,7 @@ def test_evaluate_a_run_with_a_torn_log_given_as_its_checkpoint(trained, tmp_pat
     assert len(notes) == 1 and "torn last line" in notes[0], result.stderr
     summary = json.loads((tmp_path / "e" / "evaluation.json").read_text())
     assert summary["controllers"][0]["trials"] == 3
-    assert (tmp_path / "e" / "learning_curve.png").stat().st_size > 0
+    assert (run / "learning_curve.png").stat().st_size > 0  # the training's curve: in the run
 
 
 # -- progress ------------------------------------------------------------------------------------
