@@ -159,6 +159,7 @@ def test_bad_image_options_name_the_argument(kwargs, named):
     assert "\n" not in str(caught.value)
 
 
+@pytest.mark.filterwarnings("ignore:.*symmetric and normalized")  # radians, by design
 def test_gymnasium_check_env_passes_on_the_image_mode():
     env = gym.make("PumaReach-v0", obs_mode="pixels", **FAST)
     check_env(env.unwrapped, skip_render_check=True)
@@ -255,11 +256,11 @@ def test_record_video_writes_at_the_envs_frame_rate(tmp_path):
     pytest.importorskip("moviepy", reason="RecordVideo needs moviepy (pip install moviepy)")
     imageio = pytest.importorskip("imageio.v3")
     env = gym.make("RiacsReach-v0", render_mode="rgb_array", **FAST)
-    env = gym.wrappers.RecordVideo(env, str(tmp_path), episode_trigger=lambda _: True)
+    env = gym.wrappers.RecordVideo(env, str(tmp_path / "videos"), episode_trigger=lambda _: True)
     env.reset(seed=0)
     truncated = False
     while not truncated:
         truncated = env.step(env.action_space.sample())[3]
     env.close()
-    (video,) = tmp_path.glob("*.mp4")
+    (video,) = (tmp_path / "videos").glob("*.mp4")
     assert imageio.immeta(video)["fps"] == env.metadata["render_fps"]
