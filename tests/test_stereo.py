@@ -7,6 +7,7 @@ model, MuJoCo's fovy camera), not taken from ``envs.sensing.stereo``.
 
 from __future__ import annotations
 
+import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
@@ -233,3 +234,38 @@ def test_a_larger_image_scales_the_pinhole_and_renders_it(robot):
 def test_image_size_must_be_positive_pixels():
     with pytest.raises(ValueError, match="width and height"):
         ReachEnv(width=0, height=320)
+
+
+def test_coarse_floor_grid_senses_the_same(monkeypatch):
+    """The sensing cameras draw the floor with a coarse lighting grid (SENSING_PLANE_GRID): the
+    images differ (the floor's shading), every sighting (whole images, target and effector,
+    and foveated) is bit-identical to one drawn with the scene's own fine grid."""
+    from envs.sensing import stereo as stereo_module
+    from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
+    from envs.sensing.rendering import GROUP_ROBOT, GROUP_SCENE
+
+    shaded_differently = False
+    for env_id in ("RiacsReach-v0", "PumaReach-v0"):
+        coarse = gym.make(env_id, sensing="foveated", control="kinematic").unwrapped
+        with monkeypatch.context() as patch:
+            patch.setattr(stereo_module, "SENSING_PLANE_GRID", None)  # the scene's own grid
+            fine = gym.make(env_id, sensing="foveated", control="kinematic").unwrapped
+        rng = np.random.default_rng(11)
+        for _ in range(40):
+            target = fine.spec_robot.workspace.sample(rng, 1)[0]
+            q = rng.uniform(fine.joint_lower, fine.joint_upper)
+            seen = []
+            for env in (fine, coarse):
+                env.data.mocap_pos[0] = target
+                env.set_joints(q)
+                rgb = env.stereo.render_views(env.data, (GROUP_SCENE, GROUP_ROBOT))[0][0]
+                t_px, t_vis = env.stereo.sense(env.data, RED_TARGET)
+                s = env.stereo.sense_sphere(env.data, GREEN_EFFECTOR, env.marker_radius)
+                f_px, f_vis = env.fovea.sense(env.data, GREEN_EFFECTOR, env.marker_radius, t_px)
+                seen.append((rgb, t_px, t_vis, *s, f_px, f_vis))
+            shaded_differently |= not np.array_equal(seen[0][0], seen[1][0])
+            for a, b in zip(seen[0][1:], seen[1][1:], strict=True):
+                assert np.array_equal(a, b, equal_nan=True)
+        coarse.close()
+        fine.close()
+    assert shaded_differently

@@ -27,6 +27,12 @@ from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP
 from envs.sensing.triangulation import camera_floats, triangulate_elementwise
 from envs.sensing.viewports import View, ViewportRenderer, Window
 
+#: Grid spacing (m) the sensing cameras draw the floor with (ViewportRenderer's plane_grid).
+#: The scenes' 0.05 m grid makes a 16 m floor of about 10^5 quads, half the cost of a whole
+#: view on software GL; the grid sets only the floor's per-vertex lighting, which no sighting
+#: reads (the markers are found by their own colours; the floor, far behind them, only ever
+#: counts as "farther" beside an outline), so sightings are bit-identical (tests/test_stereo.py).
+SENSING_PLANE_GRID = 0.5
 #: An outline point's outside neighbour must be this many sphere radii farther than the sphere
 #: there: a link that passes through the marker meets it at about the same depth.
 OUTLINE_DEPTH_MARGIN = 0.25
@@ -208,7 +214,7 @@ class StereoRig(CameraPair):
         self.camera_names = tuple(cameras)
         self.refresh(data)
         # Both cameras side by side in one buffer, rendered and read back together.
-        self._renderer = ViewportRenderer(model, height, 2 * width)
+        self._renderer = ViewportRenderer(model, height, 2 * width, plane_grid=SENSING_PLANE_GRID)
 
     def refresh(self, data) -> None:
         """Re-read both cameras from the model and ``data`` (after ``mj_forward``): after a change
