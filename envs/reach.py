@@ -24,6 +24,8 @@ from envs.step_info import StepInfo
 from envs.viewer import HumanViewer
 
 CONTROL_MODES = ("servo", "kinematic")
+#: The Gymnasium ids of the reach envs (registered in envs/__init__.py).
+REACH_ENV_IDS = ("RiacsReach-v0", "PumaReach-v0")
 #: Observation modes: the keys each puts into the observation dict.
 OBS_MODES = {
     "state": ("observation", "achieved_goal", "desired_goal"),

@@ -17,6 +17,8 @@ import pytest
 from learners import CheckpointError, VisuomotorSOM
 from learners.persistence import save_npz
 
+from helpers import one_line_error, run_script
+
 CASES = 2000 if os.environ.get("VISUOMOTOR_SOAK") else 200
 
 
@@ -149,3 +151,35 @@ def test_crafted_settings_with_valid_crcs_are_refused(tmp_path, change):
     with pytest.raises(CheckpointError) as refused:
         VisuomotorSOM.load(crafted(tmp_path, change))
     assert "\n" not in str(refused.value)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("env", "Pendulum-v1", "env is 'Pendulum-v1'"),
+        ("eval_trials", -3, "eval_trials is -3"),
+        ("lattice", [100_000, 100_000, 100_000], "the map's arrays"),
+        ("protocol", "hebb", "protocol"),
+    ],
+)
+def test_a_run_with_crafted_settings_is_refused_by_resume_and_evaluate(
+    tmp_path, field, value, message
+):
+    """A training run's stored configuration passes the same guards as the command line:
+    ``train.py --resume`` and ``evaluate.py --run`` end in one line, before any work."""
+    from envs.harness.checkpoint import read_unit, write_unit
+    from envs.harness.training import RunConfig, Trainer
+
+    out = tmp_path / "run"
+    Trainer(RunConfig(trials=1, lattice=(2, 2, 2), eval_every=1, eval_trials=2), out).close()
+    path = out / "som.npz"
+    run, sim_state = read_unit(path)
+    write_unit(path, VisuomotorSOM.load(path), {**run, "config": {**run["config"], field: value}},
+               sim_state)  # fmt: skip
+    for script, args in (
+        ("train", ["--out", str(out), "--resume"]),
+        ("evaluate", ["--run", str(out)]),
+    ):
+        line = one_line_error(run_script(script, *args, "--targets", "2") if script == "evaluate"
+                              else run_script(script, *args))  # fmt: skip
+        assert "damaged" in line or message in line, line

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from envs.reach import REACH_ENV_IDS
 from learners.base import Controller
 from learners.baselines.random_controller import RandomController
 
@@ -18,7 +19,7 @@ SPECS = f"{' | '.join(NAMED)} | PATH.npz (a saved VisuomotorSOM) | RUN (a train.
 #: argument parsing stays fast).
 RUN_MAP_FILE = "som.npz"
 #: The envs these controllers drive (PumaTrack-v0 takes joint increments, not reach commands).
-REACH_ENVS = ("RiacsReach-v0", "PumaReach-v0")
+REACH_ENVS = REACH_ENV_IDS
 
 
 def controller_spec(text: str) -> str:

@@ -29,7 +29,7 @@ from envs.harness.evaluation import evaluate
 from envs.harness.run_folder import METRICS_FILE, RunFolder, truncate_metrics
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.trials import learn_from, run_trial
-from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
+from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from learners.persistence import CheckpointError
 from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
@@ -74,8 +74,25 @@ class RunConfig:
     width: int = IMAGE_WIDTH  # sensing images, px
     height: int = IMAGE_HEIGHT  # px
 
-    def __post_init__(self) -> None:  # tuples also when read back from JSON lists
-        object.__setattr__(self, "lattice", tuple(int(n) for n in self.lattice))
+    def __post_init__(self) -> None:
+        """Checks every field, so that a configuration read back from a checkpoint or a sweep
+        grid passes the same guards as one given on the command line (ValueError naming it)."""
+        if not isinstance(self.lattice, (tuple, list)):
+            raise ValueError(f"lattice is {self.lattice!r}, not a list of sizes")
+        object.__setattr__(self, "lattice", tuple(self.lattice))  # a tuple also from JSON lists
+        choices = {"env": REACH_ENV_IDS, "sensing": SENSING_MODES, "control": CONTROL_MODES}
+        for name, valid in choices.items():
+            if getattr(self, name) not in valid:
+                raise ValueError(f"{name} is {getattr(self, name)!r}; valid: {', '.join(valid)}")
+        least = {"seed": 0, "trials": 1, "eval_every": 1, "eval_trials": 1, "fine_moves": 0,
+                 "width": 1, "height": 1}  # fmt: skip
+        for name, low in least.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"{name} is {value!r}; it takes an integer >= {low}")
+        if not isinstance(self.keep_arm, bool):
+            raise ValueError(f"keep_arm is {self.keep_arm!r}, not true or false")
+        self.map_config()  # the map's options, checked by SOMConfig
 
     @classmethod
     def from_stored(cls, stored: dict[str, Any]) -> RunConfig:

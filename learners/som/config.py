@@ -29,6 +29,8 @@ ABAR = ("average", "local-fit")
 SCHEDULES = ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma")
 #: Options fixed by the shape of the learned arrays: a learned map cannot change them.
 SHAPE_OPTIONS = ("lattice", "input_dim")
+#: Neurons a lattice may have: 10^7 neurons of 4 inputs and 6 joints hold about 2.7 GB.
+MAX_NEURONS = 10_000_000
 
 # Schedules x_i -> x_f over t_max trials (σ in lattice units); docs/decisions.md, "The map",
 # says where the values come from.
@@ -124,6 +126,11 @@ class SOMConfig:
             lattice = ()
         if not lattice or min(lattice) < 1:
             raise ValueError(f"SOMConfig.lattice must be a tuple of positive sizes, got {lattice}")
+        if math.prod(lattice) > MAX_NEURONS:
+            raise ValueError(
+                f"SOMConfig.lattice {lattice} has {math.prod(lattice):,} neurons; at most "
+                f"{MAX_NEURONS:,} fit in memory (a 40x40x40 lattice has 64,000)"
+            )
         put("lattice", lattice)
         if not isinstance(self.refine, bool):
             raise ValueError(f"SOMConfig.refine must be True or False, got {self.refine!r}")
