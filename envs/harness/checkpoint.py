@@ -77,6 +77,10 @@ def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
     _, arrays = load_npz(path, KIND, FORMAT_VERSION)
     if _RUN not in arrays or _SIM not in arrays:
         raise CheckpointError(f"{path}: a map without a training run's state; cannot resume it")
+    return _run_state(path, arrays), arrays[_SIM]
+
+
+def _run_state(path: str | os.PathLike, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     try:
         run = json.loads(str(arrays[_RUN]))
         missing = {"config", "identity", "trial"} - set(run)
@@ -84,16 +88,20 @@ def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
         raise CheckpointError(f"{path}: the run's state is damaged ({exc})") from exc
     if missing:
         raise CheckpointError(f"{path}: the run's state lacks {sorted(missing)}; damaged file")
-    return run, arrays[_SIM]
+    return run
 
 
 def read_identity(path: str | os.PathLike) -> dict[str, Any] | None:
     """The identity recorded in a unit, or None for a plain map file."""
     _, arrays = load_npz(path, KIND, FORMAT_VERSION)
-    if _RUN not in arrays:
-        return None
-    recorded = dict(read_unit(path)[0]["identity"])
-    if "image_size" in recorded:  # written before sizes were width and height: [height, width]
+    return recorded_identity(_run_state(path, arrays)) if _RUN in arrays else None
+
+
+def recorded_identity(run: dict[str, Any]) -> dict[str, Any]:
+    """The identity in a unit's run state, with the image size as width and height (units
+    written before that hold ``image_size`` = [height, width])."""
+    recorded = dict(run["identity"])
+    if "image_size" in recorded:
         recorded["height"], recorded["width"] = recorded.pop("image_size")
     return recorded
 

@@ -20,8 +20,8 @@ from envs.harness.checkpoint import (
     check_map_fits,
     get_sim_state,
     identity,
-    read_identity,
     read_unit,
+    recorded_identity,
     set_sim_state,
     write_unit,
 )
@@ -221,7 +221,7 @@ class Trainer:
                 config = replace(config, trials=trials)
             trainer._build(config, folder)
             wanted = identity(trainer.env, config.lattice)
-            check_identity(path, read_identity(path), wanted, tuple(wanted))
+            check_identity(path, recorded_identity(run), wanted, tuple(wanted))
             trainer.som = VisuomotorSOM.load(path)
             check_map_fits(path, trainer.som, trainer.env)
             lattice = {"lattice": list(trainer.som.lattice)}
