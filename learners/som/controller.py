@@ -79,6 +79,7 @@ from __future__ import annotations
 
 import copy
 import math
+import operator
 import os
 from pathlib import Path
 from typing import Any
@@ -170,20 +171,17 @@ def _check_state(entries: dict[str, Any]) -> None:
         raise ValueError(f"unknown bit generator in {entries['rng_state']}")
 
 
-class _Option:
-    """A read-only attribute of the map that reads its configuration."""
+def _option(name: str) -> property:
+    """A read-only attribute of the map that reads its configuration (a C-level getter: the
+    hot path reads options on every call)."""
 
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.name = name
-
-    def __get__(self, som: VisuomotorSOM | None, owner: type) -> Any:
-        return self if som is None else getattr(som.config, self.name)
-
-    def __set__(self, som: VisuomotorSOM, value: Any) -> None:
+    def refuse(som: VisuomotorSOM, value: Any) -> None:
         raise AttributeError(
-            f"{self.name} is an option of the map and cannot be set; use "
-            f"som = som.with_config({self.name}=...) for a map with another {self.name}"
+            f"{name} is an option of the map and cannot be set; use "
+            f"som = som.with_config({name}=...) for a map with another {name}"
         )
+
+    return property(operator.attrgetter(f"_config.{name}"), refuse)
 
 
 class VisuomotorSOM(CompiledPath, Learner):
@@ -212,23 +210,23 @@ class VisuomotorSOM(CompiledPath, Learner):
     options and the same learned state is :meth:`with_config`.
     """
 
-    lattice = _Option()
-    input_dim = _Option()
-    rule = _Option()
-    averaging = _Option()
-    refine = _Option()
-    abar = _Option()
-    t_max = _Option()
-    eps = _Option()
-    sigma = _Option()
-    eps_out = _Option()
-    sigma_out = _Option()
-    explore = _Option()
-    gamma = _Option()
-    a_init = _Option()
-    min_dv = _Option()
-    protocol = _Option()  # the learner interface's protocol: the strategy chosen from it
-    continual = _Option()
+    lattice = _option("lattice")
+    input_dim = _option("input_dim")
+    rule = _option("rule")
+    averaging = _option("averaging")
+    refine = _option("refine")
+    abar = _option("abar")
+    t_max = _option("t_max")
+    eps = _option("eps")
+    sigma = _option("sigma")
+    eps_out = _option("eps_out")
+    sigma_out = _option("sigma_out")
+    explore = _option("explore")
+    gamma = _option("gamma")
+    a_init = _option("a_init")
+    min_dv = _option("min_dv")
+    protocol = _option("protocol")  # the learner interface's protocol: the strategy chosen from it
+    continual = _option("continual")
 
     def __init__(
         self,
