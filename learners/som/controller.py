@@ -426,6 +426,12 @@ class VisuomotorSOM(CompiledPath, Learner):
             return kernels.winner(self._w, self._w2, u)
         return int((self._w2 - 2.0 * (self._w @ u)).argmin())
 
+    def _remembered_winner(self, u: np.ndarray) -> int:
+        """The winner the last coarse move found for target u if w has not changed since,
+        else −1."""
+        memo = self._last_winner
+        return memo[2] if memo[1] == self._version and memo[0] == u.tobytes() else -1
+
     # ----------------------------------------------------------------------------- acting
     def reset(self) -> None:
         """Forget the previous command; the next ``act`` must be a coarse one."""
@@ -504,9 +510,8 @@ class VisuomotorSOM(CompiledPath, Learner):
 
     def _local_abar(self, u: np.ndarray) -> np.ndarray:
         """Ā (J, D) of the local fit at target u (``learners/som/local_fit.py``)."""
-        memo = self._last_winner
-        same = memo[0] == u.tobytes() and memo[1] == self._version
-        return local_abar(self._grid, memo[2] if same else self._winner(u), u, self._w, self._A)
+        s = self._remembered_winner(u)
+        return local_abar(self._grid, s if s >= 0 else self._winner(u), u, self._w, self._A)
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (M, D) -> (M, J), the same as ``act`` row by row.
@@ -572,10 +577,8 @@ class VisuomotorSOM(CompiledPath, Learner):
             e = u - v0  # the coarse error: the fine move hides a shift of the images
             if self._monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
                 self._params_t = -1  # a re-adaptation starts: the schedules run back
-        key = u.tobytes()
-        if self._last_winner[0] == key and self._last_winner[1] == self._version:
-            s = self._last_winner[2]  # found by the coarse act for this target
-        else:
+        s = self._remembered_winner(u)  # found by the coarse act for this target
+        if s < 0:
             s = self._winner(u)
         self._version += 1
         self._protocol.learn(self, s, (u, theta0, v0, theta1, v1), dv / dv2)
