@@ -19,8 +19,6 @@ import numpy as np
 _KIND, _VERSION, _CONFIG = "__kind__", "__format_version__", "__config__"
 #: Configuration entry that lists the archive's arrays (removed from what ``load_npz`` returns).
 _ARRAYS = "__arrays__"
-#: The first bytes of a .npy file.
-NPY_MAGIC = b"\x93NUMPY"
 #: General-purpose flag bit of an encrypted zip member.
 _ENCRYPTED = 0x1
 #: Mode of written files before the umask, as open() gives (0644 with the usual umask 022).
@@ -175,7 +173,8 @@ def _read_archive(path: Path) -> dict[str, np.ndarray]:
     allocation), no Python objects, and the member's CRC checked."""
     if not zipfile.is_zipfile(path):
         with open(path, "rb") as f:
-            if f.read(len(NPY_MAGIC)) == NPY_MAGIC:  # a .npy (one array) under this name
+            magic = np.lib.format.MAGIC_PREFIX  # the first bytes of a .npy file
+            if f.read(len(magic)) == magic:  # a .npy (one array) under this name
                 raise CheckpointError(
                     f"{path}: a single numpy array, not a checkpoint archive; pass the .npz that "
                     "save() wrote"

@@ -102,9 +102,9 @@ class CompiledPath:
         """Ā of the local fit at target u (``learners/som/local_fit.py``) written into the
         fine-move memory's Ā, around the winner the coarse move found when the map has not
         changed since."""
-        memo = self._last_winner
-        same = memo[0] == u.tobytes() and memo[1] == self._version
-        s = memo[2] if same else self._winner(u)
+        s = self._remembered_winner(u)
+        if s < 0:
+            s = self._winner(u)
         kernels.local_fit(
             s, u, self._w, self._A, self._shape, FIT_RADIUS, FIT_SIGMA, FIT_RIDGE, self._abar
         )
@@ -124,8 +124,7 @@ class CompiledPath:
                 e = u - v0
                 if self.monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
                     self._params_t = -1
-        memo = self._last_winner
-        s = memo[2] if memo[1] == self._version and memo[0] == u.tobytes() else -1
+        s = self._remembered_winner(u)  # −1: the kernel searches it
         eps, _, eps_out, _, _ = self.params()
         table_w, table_out, _ = self._kernel_tables()
         found = kernels.learn(

@@ -79,6 +79,7 @@ from __future__ import annotations
 
 import copy
 import math
+import operator
 import os
 from pathlib import Path
 from typing import Any
@@ -170,20 +171,17 @@ def _check_state(entries: dict[str, Any]) -> None:
         raise ValueError(f"unknown bit generator in {entries['rng_state']}")
 
 
-class _Option:
-    """A read-only attribute of the map that reads its configuration."""
+def _option(name: str) -> property:
+    """A read-only attribute of the map that reads its configuration (a C-level getter: the
+    hot path reads options on every call)."""
 
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.name = name
-
-    def __get__(self, som: VisuomotorSOM | None, owner: type) -> Any:
-        return self if som is None else getattr(som.config, self.name)
-
-    def __set__(self, som: VisuomotorSOM, value: Any) -> None:
+    def refuse(som: VisuomotorSOM, value: Any) -> None:
         raise AttributeError(
-            f"{self.name} is an option of the map and cannot be set; use "
-            f"som = som.with_config({self.name}=...) for a map with another {self.name}"
+            f"{name} is an option of the map and cannot be set; use "
+            f"som = som.with_config({name}=...) for a map with another {name}"
         )
+
+    return property(operator.attrgetter(f"_config.{name}"), refuse)
 
 
 class VisuomotorSOM(CompiledPath, Learner):
@@ -212,23 +210,23 @@ class VisuomotorSOM(CompiledPath, Learner):
     options and the same learned state is :meth:`with_config`.
     """
 
-    lattice = _Option()
-    input_dim = _Option()
-    rule = _Option()
-    averaging = _Option()
-    refine = _Option()
-    abar = _Option()
-    t_max = _Option()
-    eps = _Option()
-    sigma = _Option()
-    eps_out = _Option()
-    sigma_out = _Option()
-    explore = _Option()
-    gamma = _Option()
-    a_init = _Option()
-    min_dv = _Option()
-    protocol = _Option()  # the learner interface's protocol: the strategy chosen from it
-    continual = _Option()
+    lattice = _option("lattice")
+    input_dim = _option("input_dim")
+    rule = _option("rule")
+    averaging = _option("averaging")
+    refine = _option("refine")
+    abar = _option("abar")
+    t_max = _option("t_max")
+    eps = _option("eps")
+    sigma = _option("sigma")
+    eps_out = _option("eps_out")
+    sigma_out = _option("sigma_out")
+    explore = _option("explore")
+    gamma = _option("gamma")
+    a_init = _option("a_init")
+    min_dv = _option("min_dv")
+    protocol = _option("protocol")  # the learner interface's protocol: the strategy chosen from it
+    continual = _option("continual")
 
     def __init__(
         self,
@@ -428,6 +426,12 @@ class VisuomotorSOM(CompiledPath, Learner):
             return kernels.winner(self._w, self._w2, u)
         return int((self._w2 - 2.0 * (self._w @ u)).argmin())
 
+    def _remembered_winner(self, u: np.ndarray) -> int:
+        """The winner the last coarse move found for target u if w has not changed since,
+        else −1."""
+        memo = self._last_winner
+        return memo[2] if memo[1] == self._version and memo[0] == u.tobytes() else -1
+
     # ----------------------------------------------------------------------------- acting
     def reset(self) -> None:
         """Forget the previous command; the next ``act`` must be a coarse one."""
@@ -506,9 +510,8 @@ class VisuomotorSOM(CompiledPath, Learner):
 
     def _local_abar(self, u: np.ndarray) -> np.ndarray:
         """Ā (J, D) of the local fit at target u (``learners/som/local_fit.py``)."""
-        memo = self._last_winner
-        same = memo[0] == u.tobytes() and memo[1] == self._version
-        return local_abar(self._grid, memo[2] if same else self._winner(u), u, self._w, self._A)
+        s = self._remembered_winner(u)
+        return local_abar(self._grid, s if s >= 0 else self._winner(u), u, self._w, self._A)
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (M, D) -> (M, J), the same as ``act`` row by row.
@@ -574,10 +577,8 @@ class VisuomotorSOM(CompiledPath, Learner):
             e = u - v0  # the coarse error: the fine move hides a shift of the images
             if self._monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
                 self._params_t = -1  # a re-adaptation starts: the schedules run back
-        key = u.tobytes()
-        if self._last_winner[0] == key and self._last_winner[1] == self._version:
-            s = self._last_winner[2]  # found by the coarse act for this target
-        else:
+        s = self._remembered_winner(u)  # found by the coarse act for this target
+        if s < 0:
             s = self._winner(u)
         self._version += 1
         self._protocol.learn(self, s, (u, theta0, v0, theta1, v1), dv / dv2)
