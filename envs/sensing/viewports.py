@@ -17,10 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.sensing.rendering import (
-    GROUP_MARKER,
-    GROUP_ROBOT,
-    GROUP_SCENE,
-    GROUP_TARGET,
     SENSING_OFF_FLAGS,
     check_gl_allowed,
     free_gl,
@@ -36,8 +32,6 @@ SPHERE_SLICES = 36
 SPHERE_STACKS = 18
 #: mjtGeom values of the capsule and the cylinder (bounded by capsules, see _bounding_capsules).
 mjGEOM_CAPSULE, mjGEOM_CYLINDER = 3, 5
-#: Geom groups a camera sees when it looks at the whole scene (floor, target, robot, marker).
-VISIBLE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
 #: mjtGeom value of the plane.
 mjGEOM_PLANE = 0
 #: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
