@@ -261,18 +261,18 @@ class ViewportRenderer:
         raw = np.empty((height, x), dtype=np.float32) if depth else None
         mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), self._context)
         rgb = rgb[::-1]  # GL rows are bottom first
-        if raw is None:
-            return [(rgb[height - v.window.height :, c - v.window.width : c], None)
-                    for v, c in zip(views, np.cumsum(widths).tolist(), strict=True)]  # fmt: skip
-        raw = raw[::-1]
-        near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
+        if raw is not None:
+            raw = raw[::-1]
+            near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
         out, x = [], 0
         for view in views:
             w = view.window
             rows = slice(height - w.height, height)
             cols = slice(x, x + w.width)
-            depth = near * far / (far - raw[rows, cols].astype(np.float64) * (far - near))
-            out.append((rgb[rows, cols], depth))
+            metres = None
+            if raw is not None:
+                metres = near * far / (far - raw[rows, cols].astype(np.float64) * (far - near))
+            out.append((rgb[rows, cols], metres))
             x += w.width
         return out
 
