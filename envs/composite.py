@@ -15,7 +15,8 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from envs.sensing.viewports import VISIBLE_GROUPS, View, ViewportRenderer
+from envs.sensing.rendering import VISIBLE_GROUPS
+from envs.sensing.viewports import View, ViewportRenderer
 
 PANELS = ("cam_left", "cam_right", "overview")
 CROSSHAIR = (255, 40, 40)  # RGB: target, as sensed at reset

@@ -24,10 +24,8 @@ import sys
 import threading
 import time
 
-from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
+from envs.sensing.rendering import VISIBLE_GROUPS
 
-#: Geom groups the window shows: the scene, the target, the robot and the effector marker.
-SHOWN_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
 N_GEOM_GROUPS = 6  # mjNGROUP
 CLOSE_TIMEOUT = 10.0  # s to wait for the window's thread to end
 #: Free-camera distance in units of the scene's ``<statistic extent>`` (the arm with its
@@ -48,7 +46,7 @@ class DisplayUnavailableError(RuntimeError):
 
 
 def open_viewer(model, data):
-    """MuJoCo's passive viewer on ``model``/``data`` showing SHOWN_GROUPS, without the side
+    """MuJoCo's passive viewer on ``model``/``data`` showing VISIBLE_GROUPS, without the side
     panels, and the threads it started; raises :class:`DisplayUnavailableError` without a
     display (checked here: MuJoCo's viewer thread would end the process)."""
     if sys.platform.startswith("linux") and not (
@@ -64,7 +62,7 @@ def open_viewer(model, data):
     handle = mujoco.viewer.launch_passive(model, data, show_left_ui=False, show_right_ui=False)
     with handle.lock():
         for group in range(N_GEOM_GROUPS):
-            handle.opt.geomgroup[group] = group in SHOWN_GROUPS
+            handle.opt.geomgroup[group] = group in VISIBLE_GROUPS
         frame_scene(handle.cam, model)
     return handle, [t for t in threading.enumerate() if t not in before]
 

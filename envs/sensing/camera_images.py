@@ -7,7 +7,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from envs.sensing.viewports import VISIBLE_GROUPS, View, ViewportRenderer
+from envs.sensing.rendering import VISIBLE_GROUPS
+from envs.sensing.viewports import View, ViewportRenderer
 
 #: Grid spacing (m) the floor is drawn with (see ViewportRenderer's plane_grid): half the cost
 #: of a small image.

@@ -27,6 +27,10 @@ BACKENDS = ("egl", "osmesa")
 LIBRARIES = {"egl": "EGL", "osmesa": "OSMesa"}
 #: Geom groups of the scenes: 0 scene, 1 target, 2 robot, 3 collision, 4 effector marker.
 GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_COLLISION, GROUP_MARKER = range(5)
+#: Geom groups of the whole visible scene, as people and the agents' cameras see it: the floor,
+#: the target, the robot and the effector marker (MuJoCo's default options draw groups 0-2
+#: only, which leaves the marker out).
+VISIBLE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
 _HELP = (
     "Off-screen rendering needs EGL or OSMesa. Set MUJOCO_GL=egl (Mesa's libEGL, with llvmpipe "
     "when there is no GPU) or MUJOCO_GL=osmesa after installing the Debian package libosmesa6 "
@@ -321,18 +325,13 @@ class CameraRenderer:
         return {**self.__dict__, "_renderer": None, "_options": {}}
 
 
-#: Geom groups of pictures for people: the scene, the target, the robot and the effector marker
-#: (MuJoCo's default options draw groups 0-2 only, which leaves the marker out).
-PICTURE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
-
-
 def render_camera(
     model,
     data,
     camera: str,
     height: int = 240,
     width: int = 320,
-    groups: Sequence[int] = PICTURE_GROUPS,
+    groups: Sequence[int] = VISIBLE_GROUPS,
 ) -> np.ndarray:
     """One RGB frame (height, width, 3) uint8 of a named camera with the fast settings, showing
     ``groups`` (default: everything a person should see, the green marker included)."""

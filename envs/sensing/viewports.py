@@ -17,10 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.sensing.rendering import (
-    GROUP_MARKER,
-    GROUP_ROBOT,
-    GROUP_SCENE,
-    GROUP_TARGET,
     SENSING_OFF_FLAGS,
     check_gl_allowed,
     free_gl,
@@ -36,8 +32,6 @@ SPHERE_SLICES = 36
 SPHERE_STACKS = 18
 #: mjtGeom values of the capsule and the cylinder (bounded by capsules, see _bounding_capsules).
 mjGEOM_CAPSULE, mjGEOM_CYLINDER = 3, 5
-#: Geom groups a camera sees when it looks at the whole scene (floor, target, robot, marker).
-VISIBLE_GROUPS = (GROUP_SCENE, GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
 #: mjtGeom value of the plane.
 mjGEOM_PLANE = 0
 #: Relative tolerance on equal horizontal and vertical focal lengths (float32 model values).
@@ -267,18 +261,18 @@ class ViewportRenderer:
         raw = np.empty((height, x), dtype=np.float32) if depth else None
         mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), self._context)
         rgb = rgb[::-1]  # GL rows are bottom first
-        if raw is None:
-            return [(rgb[height - v.window.height :, c - v.window.width : c], None)
-                    for v, c in zip(views, np.cumsum(widths).tolist(), strict=True)]  # fmt: skip
-        raw = raw[::-1]
-        near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
+        if raw is not None:
+            raw = raw[::-1]
+            near, far = scene.camera[0].frustum_near, scene.camera[0].frustum_far
         out, x = [], 0
         for view in views:
             w = view.window
             rows = slice(height - w.height, height)
             cols = slice(x, x + w.width)
-            depth = near * far / (far - raw[rows, cols].astype(np.float64) * (far - near))
-            out.append((rgb[rows, cols], depth))
+            metres = None
+            if raw is not None:
+                metres = near * far / (far - raw[rows, cols].astype(np.float64) * (far - near))
+            out.append((rgb[rows, cols], metres))
             x += w.width
         return out
 
