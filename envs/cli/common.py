@@ -103,13 +103,10 @@ lattice_or_none = _text_type(
 def check_image_size(env_id: str, size: tuple[int, int]) -> None:
     """Exit with one line (status 2) unless ``size`` (width, height) px suits the cameras of
     ``env_id`` (a registered reach env)."""
-    import gymnasium as gym
+    from envs.harness.training import check_env_image_size
 
-    from envs.robots import ROBOTS
-
-    aspect = ROBOTS[gym.spec(env_id).kwargs["robot"]].image_aspect
     try:
-        sizes.check_image_size(*size, aspect)
+        check_env_image_size(env_id, *size)
     except sizes.ImageSizeError as exc:
         fail(f"--image-size for {env_id}: {exc}")
 

@@ -35,14 +35,12 @@ from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 from envs.harness.evaluation import evaluate
 from envs.harness.run_folder import locked
-from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer
-from envs.robots import ROBOTS as ROBOT_SPECS
-from envs.sizes import check_image_size, format_lattice, parse_lattice, parse_size
+from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer, check_env_image_size
+from envs.sizes import format_lattice, parse_lattice, parse_size
 from learners.persistence import CheckpointError, write_atomic
 
 ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0"}
@@ -109,14 +107,8 @@ def _config(values: dict[str, Any]) -> RunConfig:
     its image size checked against the cameras of its env."""
     if "image_size" in values:
         values["width"], values["height"] = values.pop("image_size")
-    config = RunConfig(**values)
-    try:
-        robot = gym.spec(config.env).kwargs["robot"]
-    except (gym.error.Error, KeyError):
-        raise ValueError(
-            f"unknown env {config.env!r}; valid: {', '.join(ROBOTS.values())}"
-        ) from None
-    check_image_size(config.width, config.height, ROBOT_SPECS[robot].image_aspect)
+    config = RunConfig(**values)  # ValueError for an env that is not a reach env
+    check_env_image_size(config.env, config.width, config.height)
     return config
 
 
