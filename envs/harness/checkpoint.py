@@ -74,7 +74,11 @@ def write_unit(
 
 def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
     """(run, simulation state) of a unit; CheckpointError for a plain map or a damaged file."""
-    _, arrays = load_npz(path, KIND, FORMAT_VERSION)
+    return _unit(path, load_npz(path, KIND, FORMAT_VERSION)[1])
+
+
+def _unit(path: str | os.PathLike, arrays: dict[str, Any]) -> tuple[dict[str, Any], np.ndarray]:
+    """:func:`read_unit` of the arrays already loaded from ``path``."""
     if _RUN not in arrays or _SIM not in arrays:
         raise CheckpointError(f"{path}: a map without a training run's state; cannot resume it")
     try:
@@ -92,7 +96,12 @@ def read_identity(path: str | os.PathLike) -> dict[str, Any] | None:
     _, arrays = load_npz(path, KIND, FORMAT_VERSION)
     if _RUN not in arrays:
         return None
-    recorded = dict(read_unit(path)[0]["identity"])
+    return unit_identity(_unit(path, arrays)[0])
+
+
+def unit_identity(run: dict[str, Any]) -> dict[str, Any]:
+    """The identity recorded in a unit's ``run`` (from :func:`read_unit`)."""
+    recorded = dict(run["identity"])
     if "image_size" in recorded:  # written before sizes were width and height: [height, width]
         recorded["height"], recorded["width"] = recorded.pop("image_size")
     return recorded

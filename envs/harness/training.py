@@ -20,9 +20,9 @@ from envs.harness.checkpoint import (
     check_map_fits,
     get_sim_state,
     identity,
-    read_identity,
     read_unit,
     set_sim_state,
+    unit_identity,
     write_unit,
 )
 from envs.harness.evaluation import evaluate
@@ -230,7 +230,7 @@ class Trainer:
                 config = replace(config, trials=trials)
             trainer._build(config, folder)
             wanted = identity(trainer.env, config.lattice)
-            check_identity(path, read_identity(path), wanted, tuple(wanted))
+            check_identity(path, unit_identity(run), wanted, tuple(wanted))
             trainer.som = VisuomotorSOM.load(path)
             check_map_fits(path, trainer.som, trainer.env)
             lattice = {"lattice": list(trainer.som.lattice)}
