@@ -23,6 +23,7 @@ import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli.controllers import REACH_ENVS
 from envs.harness.training import RunConfig
+from envs.reach import CONTROL_MODES
 from envs.studies.adaptation import (
     CHANGES,
     MAP_CONTINUAL,
@@ -48,7 +49,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--envs", nargs="+", default=list(REACH_ENVS), choices=REACH_ENVS)
     parser.add_argument("--changes", nargs="+", default=list(CHANGES), choices=list(CHANGES))
     parser.add_argument("--sensing", default="project", choices=("render", "project"))
-    parser.add_argument("--control", default="kinematic", choices=("servo", "kinematic"))
+    parser.add_argument("--control", default="kinematic", choices=CONTROL_MODES)
     parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
     parser.add_argument("--train-trials", type=cli.positive_int, default=10_000)
     parser.add_argument(

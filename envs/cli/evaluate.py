@@ -27,7 +27,7 @@ from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, evaluate
 from envs.harness.run_folder import check_writable, read_metrics
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
-from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
+from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
 from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
 from learners.persistence import write_atomic
@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
     p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
     p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
-    p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
+    p.add_argument("--control", choices=CONTROL_MODES, help="default: the run's")
     p.add_argument("--image-size", type=cli.image_size,
                    help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip
     p.add_argument("--targets", type=cli.positive_int, default=1000)
