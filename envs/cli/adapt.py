@@ -22,6 +22,7 @@ from pathlib import Path
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli.controllers import REACH_ENVS
+from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
 from envs.reach import CONTROL_MODES
 from envs.studies.adaptation import (
@@ -38,10 +39,6 @@ from envs.studies.adaptation_media import curves_figure, phases_video
 from learners.persistence import write_atomic
 from learners.som.config import ABAR
 from learners.som.controller import VisuomotorSOM
-
-
-def _write_json(path: Path, data: object) -> None:
-    write_atomic(path, lambda f: f.write(json.dumps(data, indent=1).encode()))
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -101,12 +98,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
             print(f"{env_id}: {som.t} trials learned; warm-up in {args.sensing}, {args.control}")
             som, pre = warm_up(base, som, args.warmup, progress)
         som.save(folder / "pretrained.npz")
-        _write_json(folder / "pretraining.json", pre)
+        write_json(folder / "pretraining.json", pre)
         results = []
         for change in args.changes:
             config = replace(base, change=change)
             result, maps = adapt(config, som, progress)
-            _write_json(folder / f"{change}.json", result)
+            write_json(folder / f"{change}.json", result)
             results.append(result)
             rows.append(table_row(result))
             print(json.dumps(rows[-1]), flush=True)
@@ -126,7 +123,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 print(f"  wrote {video}", flush=True)
         title = f"{env_id}, {args.sensing} + {args.control}, {args.eval_trials} held-out targets"
         print(f"  wrote {curves_figure(pre, results, title, folder / 'curves.png')}", flush=True)
-    _write_json(args.out / "table.json", rows)
+    write_json(args.out / "table.json", rows)
     table = markdown_table(rows)
     write_atomic(args.out / "table.md", lambda f: f.write(table.encode()))
     print(table)

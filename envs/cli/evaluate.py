@@ -12,7 +12,6 @@ positions in 3-D, error map over the workspace. Numbers go to OUT/evaluation.jso
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -25,12 +24,11 @@ from envs.cli.controllers import REACH_ENVS, SPECS, Ticking, make_controller, ru
 from envs.harness import plots
 from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, evaluate
-from envs.harness.run_folder import check_writable, read_metrics
+from envs.harness.run_folder import check_writable, read_metrics, write_json
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
 from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
-from learners.persistence import write_atomic
 from learners.som.config import ABAR, PROTOCOLS
 from learners.som.controller import VisuomotorSOM
 
@@ -119,8 +117,7 @@ def main(argv: list[str] | None = None) -> dict:
     summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
                "width": width, "height": height,
                "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
-    text = json.dumps(summary, indent=1).encode()
-    write_atomic(out / "evaluation.json", lambda f: f.write(text))
+    write_json(out / "evaluation.json", summary)
 
     if plotted:
         som = VisuomotorSOM.load(specs[0])

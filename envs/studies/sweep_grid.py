@@ -38,10 +38,10 @@ from typing import Any
 import numpy as np
 
 from envs.harness.evaluation import evaluate
-from envs.harness.run_folder import locked
+from envs.harness.run_folder import locked, write_json
 from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer, check_env_image_size
 from envs.sizes import format_lattice, parse_lattice, parse_size
-from learners.persistence import CheckpointError, write_atomic
+from learners.persistence import CheckpointError
 
 ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0"}
 CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
@@ -136,10 +136,6 @@ def errors_all_counted(distances: np.ndarray) -> np.ndarray:
     return out
 
 
-def _write_json(path: Path, data: Any) -> None:
-    write_atomic(path, lambda f: f.write(json.dumps(data, indent=1).encode()))
-
-
 def run_cell(config: RunConfig, folder: Path, checkpoint_every: int = 1000) -> dict[str, Any]:
     """Train (or resume) one cell, evaluate it on the held-out targets, write cell.json.
 
@@ -169,7 +165,7 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
 
     def progress(trial: int, running: dict[str, float]) -> None:
         if trial % checkpoint_every == 0:  # Trainer.run has just saved a checkpoint
-            _write_json(folder / PROGRESS_FILE, {"trial": trial, "pid": os.getpid()})
+            write_json(folder / PROGRESS_FILE, {"trial": trial, "pid": os.getpid()})
 
     try:
         trainer.run(checkpoint_every=checkpoint_every, progress=progress)
@@ -199,5 +195,5 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
         .tolist(),
         "seconds_last_attempt": round(time.perf_counter() - start, 2),
     }
-    _write_json(folder / CELL_FILE, row)
+    write_json(folder / CELL_FILE, row)
     return row
