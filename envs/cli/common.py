@@ -116,6 +116,12 @@ def progress(items: Iterable[T], what: str, unit: str) -> Iterable[T]:
     return tqdm(items, desc=what, unit=unit, file=sys.stderr, mininterval=0.5, leave=False)
 
 
+def progress_bar(total: int, what: str, unit: str) -> tqdm:
+    """A bar like :func:`progress` of ``total`` steps, advanced by its ``update()``, for work
+    that is not a loop of the caller's (a context manager: removed when done)."""
+    return tqdm(total=total, desc=what, unit=unit, file=sys.stderr, mininterval=0.5, leave=False)
+
+
 def given_options(p: argparse.ArgumentParser, argv: Sequence[str] | None) -> set[str]:
     """The destinations of the options written on the command line (not left at default)."""
     actions = p._actions  # argparse has no public way to ask this

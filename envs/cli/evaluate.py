@@ -12,11 +12,9 @@ positions in 3-D, error map over the workspace. Numbers go to OUT/evaluation.jso
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import gymnasium as gym
-from tqdm import tqdm
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
@@ -137,14 +135,7 @@ def som_name(som: VisuomotorSOM) -> str:
 
 def evaluate_with_bar(env, controller, name: str, targets: int, fine_moves: int) -> Evaluation:
     """:func:`evaluate` with a progress bar labelled ``evaluate NAME``, removed when done."""
-    with tqdm(
-        total=targets,
-        desc=f"evaluate {name}",
-        unit="target",
-        file=sys.stderr,
-        mininterval=0.5,
-        leave=False,
-    ) as bar:
+    with cli.progress_bar(targets, f"evaluate {name}", "target") as bar:
         return evaluate(env, Ticking(controller, bar.update), targets, fine_moves)
 
 
