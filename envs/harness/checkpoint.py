@@ -25,12 +25,11 @@ _RUN, _SIM = "run", "sim_state"
 #: time, qpos, qvel, act, qacc_warmstart, ctrl, applied forces, mocap pose, ...: everything
 #: mj_step reads, so that a restored simulation continues bit for bit.
 SIM_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
-#: What a checkpoint is for; a map is only meaningful on the env it was trained on.
-IDENTITY_KEYS = ("robot", "joints", "sensing", "width", "height", "lattice")
 
 
 def identity(env: Any, lattice: tuple[int, ...]) -> dict[str, Any]:
-    """Robot, joints, sensing, image width and height (px) and lattice of a map on ``env``."""
+    """Robot, joints, sensing, image width and height (px) and lattice of a map on ``env``: what
+    a checkpoint is for (a map is only meaningful on the env it was trained on)."""
     base = env.unwrapped
     return {
         "robot": base.robot,
