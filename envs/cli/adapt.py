@@ -22,7 +22,9 @@ from pathlib import Path
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli.controllers import REACH_ENVS
+from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
+from envs.reach import CONTROL_MODES
 from envs.studies.adaptation import (
     CHANGES,
     MAP_CONTINUAL,
@@ -39,16 +41,12 @@ from learners.som.config import ABAR
 from learners.som.controller import VisuomotorSOM
 
 
-def _write_json(path: Path, data: object) -> None:
-    write_atomic(path, lambda f: f.write(json.dumps(data, indent=1).encode()))
-
-
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = cli.parser(__doc__)
     parser.add_argument("--envs", nargs="+", default=list(REACH_ENVS), choices=REACH_ENVS)
     parser.add_argument("--changes", nargs="+", default=list(CHANGES), choices=list(CHANGES))
     parser.add_argument("--sensing", default="project", choices=("render", "project"))
-    parser.add_argument("--control", default="kinematic", choices=("servo", "kinematic"))
+    parser.add_argument("--control", default="kinematic", choices=CONTROL_MODES)
     parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
     parser.add_argument("--train-trials", type=cli.positive_int, default=10_000)
     parser.add_argument(
@@ -100,12 +98,12 @@ def main(argv: list[str] | None = None) -> list[dict]:
             print(f"{env_id}: {som.t} trials learned; warm-up in {args.sensing}, {args.control}")
             som, pre = warm_up(base, som, args.warmup, progress)
         som.save(folder / "pretrained.npz")
-        _write_json(folder / "pretraining.json", pre)
+        write_json(folder / "pretraining.json", pre)
         results = []
         for change in args.changes:
             config = replace(base, change=change)
             result, maps = adapt(config, som, progress)
-            _write_json(folder / f"{change}.json", result)
+            write_json(folder / f"{change}.json", result)
             results.append(result)
             rows.append(table_row(result))
             print(json.dumps(rows[-1]), flush=True)
@@ -125,7 +123,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                 print(f"  wrote {video}", flush=True)
         title = f"{env_id}, {args.sensing} + {args.control}, {args.eval_trials} held-out targets"
         print(f"  wrote {curves_figure(pre, results, title, folder / 'curves.png')}", flush=True)
-    _write_json(args.out / "table.json", rows)
+    write_json(args.out / "table.json", rows)
     table = markdown_table(rows)
     write_atomic(args.out / "table.md", lambda f: f.write(table.encode()))
     print(table)

@@ -43,7 +43,7 @@ import numpy as np
 
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported, registers the envs)
 from envs.cli import common as cli
-from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
+from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
 
 ENV_IDS = {"riacs": "RiacsReach-v0", "puma560": "PumaReach-v0"}
@@ -126,7 +126,7 @@ def peer_steps_per_second(n_steps: int, seed: int) -> float | None:
     return rate
 
 
-RL_ENVS = ("RiacsReach-v0", "PumaReach-v0")
+RL_ENVS = REACH_ENV_IDS
 RL_SETTING = {"sensing": "project", "control": "kinematic"}
 US_PER_S = 1e6
 CLOCKS = {"wall": time.perf_counter, "thread": time.thread_time}  # s

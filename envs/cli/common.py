@@ -103,13 +103,10 @@ lattice_or_none = _text_type(
 def check_image_size(env_id: str, size: tuple[int, int]) -> None:
     """Exit with one line (status 2) unless ``size`` (width, height) px suits the cameras of
     ``env_id`` (a registered reach env)."""
-    import gymnasium as gym
+    from envs.harness.training import check_env_image_size
 
-    from envs.robots import ROBOTS
-
-    aspect = ROBOTS[gym.spec(env_id).kwargs["robot"]].image_aspect
     try:
-        sizes.check_image_size(*size, aspect)
+        check_env_image_size(env_id, *size)
     except sizes.ImageSizeError as exc:
         fail(f"--image-size for {env_id}: {exc}")
 
@@ -117,6 +114,12 @@ def check_image_size(env_id: str, size: tuple[int, int]) -> None:
 def progress(items: Iterable[T], what: str, unit: str) -> Iterable[T]:
     """``items`` with a progress bar on stderr (shown for loops that take a while)."""
     return tqdm(items, desc=what, unit=unit, file=sys.stderr, mininterval=0.5, leave=False)
+
+
+def progress_bar(total: int, what: str, unit: str) -> tqdm:
+    """A bar like :func:`progress` of ``total`` steps, advanced by its ``update()``, for work
+    that is not a loop of the caller's (a context manager: removed when done)."""
+    return tqdm(total=total, desc=what, unit=unit, file=sys.stderr, mininterval=0.5, leave=False)
 
 
 def given_options(p: argparse.ArgumentParser, argv: Sequence[str] | None) -> set[str]:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import envs  # noqa: F401  (GL back-end, registration)
 from envs.cli import common as cli
+from envs.reach import REACH_ENV_IDS
 from envs.studies import rl_report
 from envs.studies.rl_comparison import METHODS, Curve, checkpoints, run_method
 
@@ -43,10 +44,7 @@ def import_torch_first():
 
 def main(argv: list[str] | None = None) -> list[Curve]:
     p = cli.parser(__doc__)
-    p.add_argument(
-        "--env", nargs="+", choices=("RiacsReach-v0", "PumaReach-v0"),
-        default=["RiacsReach-v0", "PumaReach-v0"],
-    )  # fmt: skip
+    p.add_argument("--env", nargs="+", choices=REACH_ENV_IDS, default=list(REACH_ENV_IDS))
     p.add_argument("--sensing", choices=("project", "render"), default="project")
     p.add_argument("--control", choices=("kinematic", "servo"), default="kinematic")
     p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))

@@ -12,12 +12,9 @@ positions in 3-D, error map over the workspace. Numbers go to OUT/evaluation.jso
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from pathlib import Path
 
 import gymnasium as gym
-from tqdm import tqdm
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
@@ -25,12 +22,11 @@ from envs.cli.controllers import REACH_ENVS, SPECS, Ticking, make_controller, ru
 from envs.harness import plots
 from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, evaluate
-from envs.harness.run_folder import check_writable, read_metrics
+from envs.harness.run_folder import check_writable, read_metrics, write_json
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
-from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
+from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
 from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
-from learners.persistence import write_atomic
 from learners.som.config import ABAR, PROTOCOLS
 from learners.som.controller import VisuomotorSOM
 
@@ -49,7 +45,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
     p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
     p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
-    p.add_argument("--control", choices=("servo", "kinematic"), help="default: the run's")
+    p.add_argument("--control", choices=CONTROL_MODES, help="default: the run's")
     p.add_argument("--image-size", type=cli.image_size,
                    help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip
     p.add_argument("--targets", type=cli.positive_int, default=1000)
@@ -119,8 +115,7 @@ def main(argv: list[str] | None = None) -> dict:
     summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
                "width": width, "height": height,
                "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
-    text = json.dumps(summary, indent=1).encode()
-    write_atomic(out / "evaluation.json", lambda f: f.write(text))
+    write_json(out / "evaluation.json", summary)
 
     if plotted:
         som = VisuomotorSOM.load(specs[0])
@@ -140,14 +135,7 @@ def som_name(som: VisuomotorSOM) -> str:
 
 def evaluate_with_bar(env, controller, name: str, targets: int, fine_moves: int) -> Evaluation:
     """:func:`evaluate` with a progress bar labelled ``evaluate NAME``, removed when done."""
-    with tqdm(
-        total=targets,
-        desc=f"evaluate {name}",
-        unit="target",
-        file=sys.stderr,
-        mininterval=0.5,
-        leave=False,
-    ) as bar:
+    with cli.progress_bar(targets, f"evaluate {name}", "target") as bar:
         return evaluate(env, Ticking(controller, bar.update), targets, fine_moves)
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
+from envs.reach import REACH_ENV_IDS
 from envs.studies.sensing_accuracy import measure, table
 
 
@@ -27,7 +28,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = p.parse_args(argv)
     width, height = args.image_size
     results = {}
-    for env_id in ("RiacsReach-v0", "PumaReach-v0"):
+    for env_id in REACH_ENV_IDS:
         cli.check_image_size(env_id, args.image_size)
         env = gym.make(env_id, sensing="render", control="kinematic", width=width, height=height)
         env.reset(seed=args.seed)

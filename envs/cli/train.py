@@ -27,7 +27,7 @@ from envs import sizes
 from envs.cli import common as cli
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
-from envs.reach import SENSING_MODES
+from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 from learners.persistence import writing
 from learners.som.config import PROTOCOLS, RULES
 
@@ -61,7 +61,7 @@ def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str
 def main(argv: list[str] | None = None) -> Path:
     d = RunConfig()
     p = cli.parser(__doc__)
-    p.add_argument("--env", default=d.env, choices=("RiacsReach-v0", "PumaReach-v0"))
+    p.add_argument("--env", default=d.env, choices=REACH_ENV_IDS)
     p.add_argument("--trials", type=cli.positive_int, default=d.trials)
     p.add_argument("--seed", type=cli.nonnegative_int, default=d.seed)
     p.add_argument("--lattice", type=cli.lattice, default=sizes.format_lattice(d.lattice),
@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> Path:
         "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
     )
     p.add_argument("--sensing", default=d.sensing, choices=SENSING_MODES)
-    p.add_argument("--control", default=d.control, choices=("servo", "kinematic"))
+    p.add_argument("--control", default=d.control, choices=CONTROL_MODES)
     size = sizes.format_size(d.width, d.height)
     p.add_argument("--image-size", type=cli.image_size, default=size,
                    help="sensing images WIDTHxHEIGHT, e.g. 640x480")  # fmt: skip

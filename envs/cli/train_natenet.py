@@ -22,6 +22,7 @@ import numpy as np
 
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
 from envs.cli import common as cli
+from envs.harness.plots import save_figure
 from envs.harness.tracking import evaluate, exact_inverse_jacobian, track_episode, train_on_paths
 from envs.harness.video import VideoWriter, annotate
 from envs.track import PumaTrackEnv
@@ -126,8 +127,7 @@ def plot_results(out: Path, evals: dict, history: dict, grid_history: dict) -> N
     axes[1].set_xlabel("step along the test circle (r = 0.1 m)")
     axes[0].legend()
     fig.tight_layout()
-    fig.savefig(out / "tracking_error.png", dpi=120)
-    plt.close(fig)
+    save_figure(fig, out / "tracking_error.png", bbox_inches=None)
 
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(history["steps"], history["nodes"], label="NATEnet (allocation)")
@@ -136,8 +136,7 @@ def plot_results(out: Path, evals: dict, history: dict, grid_history: dict) -> N
     ax.set_ylabel("nodes")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out / "node_count.png", dpi=120)
-    plt.close(fig)
+    save_figure(fig, out / "node_count.png", bbox_inches=None)
 
     fig = plt.figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
@@ -152,8 +151,7 @@ def plot_results(out: Path, evals: dict, history: dict, grid_history: dict) -> N
     ax.set_zlabel("z (m)")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(out / "path_3d.png", dpi=120)
-    plt.close(fig)
+    save_figure(fig, out / "path_3d.png", bbox_inches=None)
 
 
 def write_video(out: Path, net: NATEnet, gain: float, seed: int) -> Path:

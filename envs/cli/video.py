@@ -19,7 +19,7 @@ from envs.cli.controllers import NAMED, REACH_ENVS, SPECS, controller_spec, make
 from envs.harness.film import VIDEO_FPS, TrialFilm, side_by_side
 from envs.harness.run_folder import check_writable
 from envs.harness.video import VideoWriter
-from envs.reach import SENSING_MODES
+from envs.reach import CONTROL_MODES, SENSING_MODES
 
 
 def controller_name(spec: str, controller) -> str:
@@ -37,7 +37,7 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
     parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
     parser.add_argument("--sensing", default="foveated", choices=SENSING_MODES)
-    parser.add_argument("--control", default="servo", choices=("servo", "kinematic"))
+    parser.add_argument("--control", default="servo", choices=CONTROL_MODES)
     parser.add_argument("--fps", type=cli.positive_float, default=VIDEO_FPS)
     parser.add_argument(
         "--speed", type=cli.positive_float, default=1.0, help="simulated s per s of video"

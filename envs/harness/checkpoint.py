@@ -25,12 +25,11 @@ _RUN, _SIM = "run", "sim_state"
 #: time, qpos, qvel, act, qacc_warmstart, ctrl, applied forces, mocap pose, ...: everything
 #: mj_step reads, so that a restored simulation continues bit for bit.
 SIM_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
-#: What a checkpoint is for; a map is only meaningful on the env it was trained on.
-IDENTITY_KEYS = ("robot", "joints", "sensing", "width", "height", "lattice")
 
 
 def identity(env: Any, lattice: tuple[int, ...]) -> dict[str, Any]:
-    """Robot, joints, sensing, image width and height (px) and lattice of a map on ``env``."""
+    """Robot, joints, sensing, image width and height (px) and lattice of a map on ``env``: what
+    a checkpoint is for (a map is only meaningful on the env it was trained on)."""
     base = env.unwrapped
     return {
         "robot": base.robot,
@@ -74,13 +73,13 @@ def write_unit(
 
 def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
     """(run, simulation state) of a unit; CheckpointError for a plain map or a damaged file."""
-    _, arrays = load_npz(path, KIND, FORMAT_VERSION)
+    return _unit(path, load_npz(path, KIND, FORMAT_VERSION)[1])
+
+
+def _unit(path: str | os.PathLike, arrays: dict[str, Any]) -> tuple[dict[str, Any], np.ndarray]:
+    """:func:`read_unit` of the arrays already loaded from ``path``."""
     if _RUN not in arrays or _SIM not in arrays:
         raise CheckpointError(f"{path}: a map without a training run's state; cannot resume it")
-    return _run_state(path, arrays), arrays[_SIM]
-
-
-def _run_state(path: str | os.PathLike, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     try:
         run = json.loads(str(arrays[_RUN]))
         missing = {"config", "identity", "trial"} - set(run)
@@ -88,20 +87,21 @@ def _run_state(path: str | os.PathLike, arrays: dict[str, np.ndarray]) -> dict[s
         raise CheckpointError(f"{path}: the run's state is damaged ({exc})") from exc
     if missing:
         raise CheckpointError(f"{path}: the run's state lacks {sorted(missing)}; damaged file")
-    return run
+    return run, arrays[_SIM]
 
 
 def read_identity(path: str | os.PathLike) -> dict[str, Any] | None:
     """The identity recorded in a unit, or None for a plain map file."""
     _, arrays = load_npz(path, KIND, FORMAT_VERSION)
-    return recorded_identity(_run_state(path, arrays)) if _RUN in arrays else None
+    if _RUN not in arrays:
+        return None
+    return unit_identity(_unit(path, arrays)[0])
 
 
-def recorded_identity(run: dict[str, Any]) -> dict[str, Any]:
-    """The identity in a unit's run state, with the image size as width and height (units
-    written before that hold ``image_size`` = [height, width])."""
+def unit_identity(run: dict[str, Any]) -> dict[str, Any]:
+    """The identity recorded in a unit's ``run`` (from :func:`read_unit`)."""
     recorded = dict(run["identity"])
-    if "image_size" in recorded:
+    if "image_size" in recorded:  # written before sizes were width and height: [height, width]
         recorded["height"], recorded["width"] = recorded.pop("image_size")
     return recorded
 

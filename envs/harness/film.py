@@ -153,10 +153,12 @@ def side_by_side(films: list[Stages], gap: int = 6) -> list[np.ndarray]:
     shorter holds its last frame (a stage a film did not reach holds its last frame too)."""
     frames = []
     for s in range(max(len(f) for f in films)):
-        parts = [f[min(s, len(f) - 1)] for f in films]
-        parts = [p if s < len(f) else p[-1:] for p, f in zip(parts, films, strict=True)]
+        parts = [f[s] if s < len(f) else f[-1][-1:] for f in films]
         for i in range(max(len(p) for p in parts)):
             rows = [p[min(i, len(p) - 1)] for p in parts]
+            if len(rows) == 1:  # one film: its frames as they are
+                frames.append(rows[0])
+                continue
             width = max(r.shape[1] for r in rows)
             spacer = np.full((gap, width, 3), 255, dtype=np.uint8)
             stacked = [rows[0]]

@@ -133,6 +133,12 @@ def truncate_metrics(path: Path, rows: int) -> None:
         write_atomic(path, lambda f: f.write(text))
 
 
+def write_json(path: str | os.PathLike, data: Any) -> Path:
+    """``data`` as JSON (indent 1) in ``path``, written atomically (:func:`write_atomic`)."""
+    text = json.dumps(data, indent=1).encode()
+    return write_atomic(path, lambda f: f.write(text))
+
+
 def check_writable(folder: str | os.PathLike) -> Path:
     """Write (and remove) a one-byte file in ``folder``, or in its nearest existing ancestor
     if it does not exist yet, so that a read-only folder or a full disk is found before any

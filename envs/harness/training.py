@@ -21,8 +21,8 @@ from envs.harness.checkpoint import (
     get_sim_state,
     identity,
     read_unit,
-    recorded_identity,
     set_sim_state,
+    unit_identity,
     write_unit,
 )
 from envs.harness.evaluation import evaluate
@@ -30,6 +30,8 @@ from envs.harness.run_folder import METRICS_FILE, RunFolder, truncate_metrics
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
+from envs.robots import ROBOTS
+from envs.sizes import check_image_size
 from learners.persistence import CheckpointError
 from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
@@ -51,6 +53,13 @@ RUNNING_WEIGHT = 0.02
 #: the map's ``t_max`` is the run's ``trials``.
 MAP_OPTIONS = ("lattice", "rule", "protocol", "refine", "abar")
 _MAP = SOMConfig()
+
+
+def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int]:
+    """:func:`envs.sizes.check_image_size` against the cameras of the registered reach env
+    ``env_id`` (ImageSizeError unless (width, height) px suits them)."""
+    robot = gym.spec(env_id).kwargs["robot"]
+    return check_image_size(width, height, ROBOTS[robot].image_aspect)
 
 
 @dataclass(frozen=True)
@@ -221,7 +230,7 @@ class Trainer:
                 config = replace(config, trials=trials)
             trainer._build(config, folder)
             wanted = identity(trainer.env, config.lattice)
-            check_identity(path, recorded_identity(run), wanted, tuple(wanted))
+            check_identity(path, unit_identity(run), wanted, tuple(wanted))
             trainer.som = VisuomotorSOM.load(path)
             check_map_fits(path, trainer.som, trainer.env)
             lattice = {"lattice": list(trainer.som.lattice)}

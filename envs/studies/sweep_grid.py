@@ -35,15 +35,13 @@ from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 from envs.harness.evaluation import evaluate
-from envs.harness.run_folder import locked
-from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer
-from envs.robots import ROBOTS as ROBOT_SPECS
-from envs.sizes import check_image_size, format_lattice, parse_lattice, parse_size
-from learners.persistence import CheckpointError, write_atomic
+from envs.harness.run_folder import locked, write_json
+from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer, check_env_image_size
+from envs.sizes import format_lattice, parse_lattice, parse_size
+from learners.persistence import CheckpointError
 
 ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0"}
 CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
@@ -109,14 +107,8 @@ def _config(values: dict[str, Any]) -> RunConfig:
     its image size checked against the cameras of its env."""
     if "image_size" in values:
         values["width"], values["height"] = values.pop("image_size")
-    config = RunConfig(**values)
-    try:
-        robot = gym.spec(config.env).kwargs["robot"]
-    except (gym.error.Error, KeyError):
-        raise ValueError(
-            f"unknown env {config.env!r}; valid: {', '.join(ROBOTS.values())}"
-        ) from None
-    check_image_size(config.width, config.height, ROBOT_SPECS[robot].image_aspect)
+    config = RunConfig(**values)  # ValueError for an env that is not a reach env
+    check_env_image_size(config.env, config.width, config.height)
     return config
 
 
@@ -142,10 +134,6 @@ def errors_all_counted(distances: np.ndarray) -> np.ndarray:
         missing = np.isnan(out[:, k])
         out[missing, k] = out[missing, k - 1]
     return out
-
-
-def _write_json(path: Path, data: Any) -> None:
-    write_atomic(path, lambda f: f.write(json.dumps(data, indent=1).encode()))
 
 
 def run_cell(config: RunConfig, folder: Path, checkpoint_every: int = 1000) -> dict[str, Any]:
@@ -177,7 +165,7 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
 
     def progress(trial: int, running: dict[str, float]) -> None:
         if trial % checkpoint_every == 0:  # Trainer.run has just saved a checkpoint
-            _write_json(folder / PROGRESS_FILE, {"trial": trial, "pid": os.getpid()})
+            write_json(folder / PROGRESS_FILE, {"trial": trial, "pid": os.getpid()})
 
     try:
         trainer.run(checkpoint_every=checkpoint_every, progress=progress)
@@ -207,5 +195,5 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
         .tolist(),
         "seconds_last_attempt": round(time.perf_counter() - start, 2),
     }
-    _write_json(folder / CELL_FILE, row)
+    write_json(folder / CELL_FILE, row)
     return row

@@ -18,6 +18,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
 from envs.studies.sweep_grid import CELL_FILE, PROGRESS_FILE, cell_name, run_cell
 from learners.persistence import write_atomic
@@ -134,7 +135,7 @@ def _progress(pending, configs: list[RunConfig], folders: list[Path]) -> str:
 def write_table(rows: list[dict[str, Any]], out: Path) -> None:
     """results.json (rows as they are) and results.csv (lists as "a;b;c"), atomically."""
     out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / TABLE_JSON, lambda f: f.write(json.dumps(rows, indent=1).encode()))
+    write_json(out / TABLE_JSON, rows)
     columns = list(dict.fromkeys(k for row in rows for k in row))
     text = io.StringIO()
     writer = csv.DictWriter(text, columns)
