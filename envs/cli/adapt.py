@@ -21,10 +21,9 @@ from pathlib import Path
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import REACH_ENVS
 from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
-from envs.reach import CONTROL_MODES
+from envs.reach import CONTROL_MODES, REACH_ENV_IDS
 from envs.studies.adaptation import (
     CHANGES,
     MAP_CONTINUAL,
@@ -43,7 +42,7 @@ from learners.som.controller import VisuomotorSOM
 
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = cli.parser(__doc__)
-    parser.add_argument("--envs", nargs="+", default=list(REACH_ENVS), choices=REACH_ENVS)
+    parser.add_argument("--envs", nargs="+", default=list(REACH_ENV_IDS), choices=REACH_ENV_IDS)
     parser.add_argument("--changes", nargs="+", default=list(CHANGES), choices=list(CHANGES))
     parser.add_argument("--sensing", default="project", choices=("render", "project"))
     parser.add_argument("--control", default="kinematic", choices=CONTROL_MODES)

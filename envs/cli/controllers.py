@@ -8,18 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from envs.reach import REACH_ENV_IDS
+from envs.harness.training import MAP_FILE
 from learners.base import Controller
 from learners.baselines.random_controller import RandomController
 
 #: The controllers that need no file.
 NAMED = ("random", "analytic", "jacobian", "exact-servo")
 SPECS = f"{' | '.join(NAMED)} | PATH.npz (a saved VisuomotorSOM) | RUN (a train.py run folder)"
-#: The map's file in a run folder (``envs.harness.training.MAP_FILE``; not imported, so that
-#: argument parsing stays fast).
-RUN_MAP_FILE = "som.npz"
-#: The envs these controllers drive (PumaTrack-v0 takes joint increments, not reach commands).
-REACH_ENVS = REACH_ENV_IDS
 
 
 def controller_spec(text: str) -> str:
@@ -29,12 +24,12 @@ def controller_spec(text: str) -> str:
         return text
     path = Path(text)
     if path.is_dir():
-        if not (path / RUN_MAP_FILE).is_file():
+        if not (path / MAP_FILE).is_file():
             raise argparse.ArgumentTypeError(
-                f"{text} is a folder without {RUN_MAP_FILE}; pass a train.py run folder, a .npz "
+                f"{text} is a folder without {MAP_FILE}; pass a train.py run folder, a .npz "
                 f"map or one of {', '.join(NAMED)}"
             )
-        return str(path / RUN_MAP_FILE)
+        return str(path / MAP_FILE)
     if path.suffix == ".npz":
         if not path.is_file():
             raise argparse.ArgumentTypeError(f"{text} does not exist; train a map with train.py")
@@ -52,22 +47,22 @@ def run_folder(text: str) -> Path:
     (``RUN/som.npz``) standing for the folder; anything else is a one-line usage error that
     says what to pass."""
     path = Path(text)
-    if path.is_file() and path.name == RUN_MAP_FILE:
+    if path.is_file() and path.name == MAP_FILE:
         return path.parent
     if path.is_file():
         also = f", or evaluate this map with --controller {text}" * (path.suffix == ".npz")
         raise argparse.ArgumentTypeError(
             f"{text} is a file, not a train.py run folder; pass the run's folder (or its "
-            f"{RUN_MAP_FILE}){also}"
+            f"{MAP_FILE}){also}"
         )
     if not path.exists():
         raise argparse.ArgumentTypeError(
             f"{text} does not exist; pass the --out folder of a train.py run, or train one there "
             "first"
         )
-    if not (path / RUN_MAP_FILE).is_file():
+    if not (path / MAP_FILE).is_file():
         raise argparse.ArgumentTypeError(
-            f"{text} holds no {RUN_MAP_FILE}, so no train.py run; pass the --out folder of a "
+            f"{text} holds no {MAP_FILE}, so no train.py run; pass the --out folder of a "
             "finished or stopped run"
         )
     return path

@@ -18,8 +18,9 @@ import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import REACH_ENVS, make_controller
+from envs.cli.controllers import make_controller
 from envs.harness.film import TrialFilm, side_by_side
+from envs.reach import REACH_ENV_IDS
 
 GIF_FPS = 12.0  # frames per second of the animations
 GIF_PANEL = (256, 192)  # width, height of each panel of the reach animations, pixels
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> list[Path]:
     parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
     args = parser.parse_args(argv)
     written = []
-    for env_id in REACH_ENVS:
+    for env_id in REACH_ENV_IDS:
         frames = reach_frames(env_id, args.trials, args.seed)
         written.append(write_gif(frames, args.out / f"{env_id}.gif", GIF_FPS))
     written.append(write_gif(track_frames(args.seed), args.out / "PumaTrack-v0.gif", GIF_FPS))

@@ -18,13 +18,13 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import REACH_ENVS, SPECS, Ticking, make_controller, run_folder
+from envs.cli.controllers import SPECS, Ticking, make_controller, run_folder
 from envs.harness import plots
 from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, evaluate
 from envs.harness.run_folder import check_writable, read_metrics, write_json
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
-from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
+from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
 from learners.som.config import ABAR, PROTOCOLS
@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     p.add_argument("--controller", help=f"instead of --run: {SPECS}")
     p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
-    p.add_argument("--env", choices=REACH_ENVS, help="default: the run's env")
+    p.add_argument("--env", choices=REACH_ENV_IDS, help="default: the run's env")
     p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
     p.add_argument("--control", choices=CONTROL_MODES, help="default: the run's")
     p.add_argument("--image-size", type=cli.image_size,

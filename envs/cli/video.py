@@ -15,11 +15,11 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import NAMED, REACH_ENVS, SPECS, controller_spec, make_controller
+from envs.cli.controllers import NAMED, SPECS, controller_spec, make_controller
 from envs.harness.film import VIDEO_FPS, TrialFilm, side_by_side
 from envs.harness.run_folder import check_writable
 from envs.harness.video import VideoWriter
-from envs.reach import CONTROL_MODES, SENSING_MODES
+from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 
 
 def controller_name(spec: str, controller) -> str:
@@ -28,7 +28,7 @@ def controller_name(spec: str, controller) -> str:
 
 def main(argv: list[str] | None = None) -> Path:
     parser = cli.parser(__doc__)
-    parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENVS)
+    parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENV_IDS)
     parser.add_argument("--controller", required=True, type=controller_spec, help=SPECS)
     parser.add_argument(
         "--compare", type=controller_spec, help="a second controller on the same targets"
