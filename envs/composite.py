@@ -106,9 +106,11 @@ class CompositeView:
 
         Args:
             data: the MjData to draw.
-            target_px, effector_px: (4,) sensing pixels (left u, v, right u, v); NaN entries
-                (not seen) are not drawn.
-            trail: earlier detections (4,) each, joined by a line in their order.
+            target_px, effector_px: (4M,) sensing pixels (left u, v, right u, v) of M markers
+                each (the reach task's one, the pose task's three); NaN entries (not seen) are
+                not drawn.
+            trail: earlier detections (4,) each of the first marker, joined by a line in their
+                order.
         """
         images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
         panels = []
@@ -118,13 +120,16 @@ class CompositeView:
             pick = slice(2 * k, 2 * k + 2)
             points = [self.to_panel(p[pick]) for p in trail if np.all(np.isfinite(p[pick]))]
             self._trail(view, points)
+            for first in range(0, len(target_px), 4):  # each marker: 4 pixels
+                marker = slice(first + 2 * k, first + 2 * k + 2)
+                target = self.to_panel(target_px[marker])
+                if np.all(np.isfinite(target)):
+                    self._crosshair(view, target)
+                effector = self.to_panel(effector_px[marker])
+                if np.all(np.isfinite(effector)):
+                    radius = round(self.height * CIRCLE_FRACTION)
+                    cv2.circle(view, _int(effector), radius, DETECTION, self._line, cv2.LINE_AA)
             target = self.to_panel(target_px[pick])
-            if np.all(np.isfinite(target)):
-                self._crosshair(view, target)
-            effector = self.to_panel(effector_px[pick])
-            if np.all(np.isfinite(effector)):
-                radius = round(self.height * CIRCLE_FRACTION)
-                cv2.circle(view, _int(effector), radius, DETECTION, self._line, cv2.LINE_AA)
             if self.zoom and np.all(np.isfinite(target)):
                 draw_inset(view, target, self._text)
             panels.append(view)

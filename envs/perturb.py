@@ -12,7 +12,7 @@ exact baselines use.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -231,7 +231,8 @@ class SceneEditor:
 
     Args:
         model, data: the env's MuJoCo model and data (after ``mj_forward`` at the nominal state).
-        robot: robot name; site, marker: the sensed site and its marker geom.
+        robot: robot name; site, markers: the sensed site and the marker geoms that move
+            with it (the green marker; the hand's three).
         nominal: the nominal cameras (pixels of the env's image size).
         width, height: the env's sensing image size, px.
     """
@@ -242,7 +243,7 @@ class SceneEditor:
         data,
         robot: str,
         site: str,
-        marker: str,
+        markers: Sequence[str],
         nominal: CameraPair,
         width: int,
         height: int,
@@ -255,7 +256,8 @@ class SceneEditor:
         self._cam_mat = data.cam_xmat[self._cams].reshape(2, 3, 3).copy()
         self._intrinsic = model.cam_intrinsic[self._cams].copy()
         self._fovy = model.cam_fovy[self._cams].copy()  # deg
-        self._site, self._marker = model.site(site).id, model.geom(marker).id
+        self._site = model.site(site).id
+        self._marker = np.array([model.geom(name).id for name in markers])
         # A site or geom compiled as sitting at its body's frame ignores its pos: let it move.
         model.site_sameframe[self._site] = model.geom_sameframe[self._marker] = 0
         self._site_pos = model.site_pos[self._site].copy()

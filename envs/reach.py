@@ -14,7 +14,7 @@ from envs import arguments
 from envs.composite import CompositeView
 from envs.perturb import Perturbation, PerturbationError, SceneEditor, random_sizes
 from envs.reward import GoalPoints, reward_terms, seen_flags
-from envs.robots import ROBOTS
+from envs.robots import ROBOTS, MarkerSet
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
 from envs.sensing.camera_images import CameraImages
 from envs.sensing.sensors import SENSING_MODES, make_sensor
@@ -217,8 +217,10 @@ class ReachEnv(ArmScene):
             arguments.positive_int("pixels_width (px)", pixels_width),
             arguments.positive_int("pixels_height (px)", pixels_height),
         )
-        super().__init__(robot, joints, width, height)
+        super().__init__(robot, joints, width, height, self._task_markers(robot, joints))
         width, height = self.image_width, self.image_height
+        #: Goal entries: 4 pixels (u_left, v_left, u_right, v_right) per marker.
+        self.goal_size = 4 * len(self.markers.effector)
         self.robot, self.joints, self.sensing, self.control = robot, joints, sensing, control
         self.success_threshold = float(success_threshold)
         self.render_mode = render_mode
@@ -233,8 +235,8 @@ class ReachEnv(ArmScene):
             self.model,
             self.data,
             robot,
-            self.spec_robot.sensed[joints],
-            self.spec_robot.markers[joints],
+            self.markers.site,
+            self.markers.effector,
             self.nominal_stereo,
             width,
             height,
@@ -259,12 +261,12 @@ class ReachEnv(ArmScene):
         self.on_physics_step: Callable[[float], None] | None = None
         self._cameras_read: tuple | None = None  # the rig's cameras when last converted ...
         self._goal_points: GoalPoints | None = None  # ... to floats for the reward
-        centre = np.tile([(width - 1) / 2, (height - 1) / 2], 2)
+        centre = np.tile([(width - 1) / 2, (height - 1) / 2], self.goal_size // 2)
         self._last = {"target": centre.copy(), "effector": centre.copy()}
         self._visible_target = np.zeros(2, dtype=bool)
         self._visible_effector = np.zeros(2, dtype=bool)
-        self._detected_target = np.full(4, np.nan)
-        self._detected_effector = np.full(4, np.nan)
+        self._detected_target = np.full(self.goal_size, np.nan)
+        self._detected_effector = np.full(self.goal_size, np.nan)
 
     # -- Gymnasium API -------------------------------------------------------------------------
 
@@ -280,13 +282,14 @@ class ReachEnv(ArmScene):
             self._human.start(self.model, self.data)
         if change is not None:
             self._apply(change)
-        target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
-        target = target + self.perturbation.base_shift
+        target, orientation = self._draw_target()
         if options.get("keep_arm", False):
             self.data.qvel[:] = 0.0
         else:
             mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
-        self.data.mocap_pos[0] = target
+        self.data.mocap_pos[self.target_mocap_id] = target
+        if orientation is not None:
+            self.data.mocap_quat[self.target_mocap_id] = orientation
         self._forward()
         self._sense_target()
         self._sense_effector()
@@ -312,44 +315,71 @@ class ReachEnv(ArmScene):
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
     ) -> float | np.ndarray:
-        """The step reward for goals (..., 4) (pixels, or normalised with ``normalize``).
+        """The step reward for goals (..., G) (pixels, or normalised with ``normalize``; G = 4
+        for the reach task).
 
         ``info``: one dict, dicts shaped like the batch (list or object array, as HER passes
         them), or None (every effector marker taken as seen). A float for one pair of goals, an
         array of the batch shape otherwise; bit-identical to the step's reward for its goals.
         """
-        distance, unseen = self._reward_terms(achieved_goal, desired_goal, info)
-        return distance + unseen
+        terms = self._reward_terms(achieved_goal, desired_goal, info)
+        total = terms[0]
+        for term in terms[1:]:
+            total = total + term
+        return total
 
-    def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, Any]:
-        """(reward_distance, reward_unseen) through :func:`envs.reward.reward_terms`."""
+    def _goal_coordinates(
+        self, achieved_goal, desired_goal
+    ) -> tuple[tuple[int, ...], list | np.ndarray, list | np.ndarray]:
+        """(batch shape, achieved, desired): each goal's G pixel coordinates (normalised goals
+        mapped back to pixels), as Python floats for one transition (shape ``()``: the same
+        bits as arrays, quicker) or as arrays (G, *shape) for a batch."""
         a, d = np.asarray(achieved_goal, dtype=float), np.asarray(desired_goal, dtype=float)
-        if a.shape == d.shape == (4,):  # one transition: Python floats, same bits as arrays
+        size = self.goal_size
+        if a.shape == d.shape == (size,):  # one transition: Python floats, same bits as arrays
             shape: tuple[int, ...] = ()
             a_q, d_q = a.tolist(), d.tolist()
         else:
-            if a.shape[-1:] != (4,) or d.shape[-1:] != (4,):
+            if a.shape[-1:] != (size,) or d.shape[-1:] != (size,):
                 raise ValueError(
-                    f"goals are (..., 4) pixel vectors (u_left, v_left, u_right, v_right), got "
+                    f"goals are (..., {size}) pixel vectors ({self._goal_layout}), got "
                     f"shapes {a.shape} and {d.shape}"
                 )
             shape = np.broadcast_shapes(a.shape, d.shape)[:-1]
-            a_q = np.moveaxis(np.broadcast_to(a, (*shape, 4)), -1, 0)
-            d_q = np.moveaxis(np.broadcast_to(d, (*shape, 4)), -1, 0)
+            a_q = np.moveaxis(np.broadcast_to(a, (*shape, size)), -1, 0)
+            d_q = np.moveaxis(np.broadcast_to(d, (*shape, size)), -1, 0)
         if self.normalize:
             a_q, d_q = self._goal_pixels(a_q), self._goal_pixels(d_q)
+        return shape, a_q, d_q
+
+    #: How a goal vector is laid out, for messages.
+    _goal_layout = "u_left, v_left, u_right, v_right"
+    #: The reward's terms, in the order they are added (``info`` keys).
+    REWARD_TERMS: ClassVar[tuple[str, ...]] = ("reward_distance", "reward_unseen")
+
+    def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, ...]:
+        """The reward's terms (:attr:`REWARD_TERMS`): (reward_distance, reward_unseen) through
+        :func:`envs.reward.reward_terms`."""
+        shape, a_q, d_q = self._goal_coordinates(achieved_goal, desired_goal)
+        return reward_terms(self.goal_points, a_q, d_q, seen_flags(info, shape), self.reach)
+
+    @property
+    def goal_points(self) -> GoalPoints:
+        """The stereo rig's cameras as floats for triangulating goals, re-read when the rig
+        changed (a perturbation)."""
         if self._cameras_read is not self.stereo.cameras:  # (re)read if the rig changed
             self._cameras_read = self.stereo.cameras
             self._goal_points = GoalPoints(tuple(camera_floats(c) for c in self.stereo.cameras))
-        return reward_terms(self._goal_points, a_q, d_q, seen_flags(info, shape), self.reach)
+        return self._goal_points
 
     def _reward(self, observation: dict[str, np.ndarray], info: dict[str, Any]) -> float:
         """The reward of a transition; puts its terms into ``info``."""
-        distance, unseen = self._reward_terms(
-            observation["achieved_goal"], observation["desired_goal"], info
-        )
-        info["reward_distance"], info["reward_unseen"] = distance, unseen
-        return distance + unseen
+        terms = self._reward_terms(observation["achieved_goal"], observation["desired_goal"], info)
+        info.update(zip(self.REWARD_TERMS, terms, strict=True))
+        total = terms[0]
+        for term in terms[1:]:
+            total = total + term
+        return total
 
     def render(self) -> np.ndarray | None:
         if self.render_mode == "human":
@@ -360,6 +390,17 @@ class ReachEnv(ArmScene):
         if self.render_mode != "rgb_array":
             return None
         return self._view.render(self.data, self._last["target"], self._detected_effector)
+
+    def _task_markers(self, robot: str, joints: int) -> MarkerSet | None:
+        """The task's markers for :class:`ArmScene` (None: the reach task's)."""
+        return None
+
+    def _draw_target(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """The next target's world position (3,) m and orientation (a unit quaternion (4,), or
+        None to leave the mocap body's), drawn with ``np_random``: a point uniform in the
+        robot's workspace, moved with the base."""
+        target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
+        return target + self.perturbation.base_shift, None
 
     def close(self) -> None:
         super().close()
@@ -424,11 +465,13 @@ class ReachEnv(ArmScene):
         return change
 
     def sensed_target(self) -> np.ndarray:
-        """Target pixels (4,) sensed at the last reset; NaN in a camera that did not see it."""
+        """Target pixels (G,) sensed at the last reset (4 per marker); NaN in a camera that did
+        not see a marker."""
         return self._detected_target.copy()
 
     def sensed_effector(self) -> np.ndarray:
-        """Marker pixels (4,) sensed after the last move; NaN in a camera that did not see it."""
+        """Marker pixels (G,) sensed after the last move (4 per marker); NaN in a camera that did
+        not see a marker."""
         return self._detected_effector.copy()
 
     @property
@@ -500,26 +543,41 @@ class ReachEnv(ArmScene):
 
     def _sense_target(self) -> None:
         pixels, visible = self.sensor.sense_target(self.data)
-        self._visible_target = visible
+        self._visible_target = self._per_camera(visible)
         self._detected_target = pixels
         self._remember("target", pixels, visible)
 
     def _sense_effector(self) -> None:
-        # The marker is expected where the target is: that is where a reach aims.
+        # The markers are expected where the target's are: that is where a reach aims.
         pixels, visible = self.sensor.sense_effector(self.data, self._detected_target)
-        self._visible_effector = visible
+        self._visible_effector = self._per_camera(visible)
         self._detected_effector = pixels
         self._remember("effector", pixels, visible)
 
+    @staticmethod
+    def _per_camera(visible: np.ndarray) -> np.ndarray:
+        """(2,) bool: each camera saw every marker (``visible`` (2M,): per marker, per camera)."""
+        return visible.reshape(-1, 2).all(axis=0)
+
     def _remember(self, marker: str, pixels: np.ndarray, visible: np.ndarray) -> None:
-        """Keep a sighting by both cameras as the marker's goal, inside the image: a projected
-        centre is inside by the visibility test; a rendered one may be shifted out by the
-        sub-pixel perspective correction and is clipped."""
-        left, right = visible.tolist()
-        if left and right:
+        """Keep each sighting by both cameras as that marker's goal, inside the image: a
+        projected centre is inside by the visibility test; a rendered one may be shifted out by
+        the sub-pixel perspective correction and is clipped. A marker not seen by both keeps
+        its last sighting."""
+        flags = visible.tolist()
+        if all(flags):  # every marker seen (the reach task's one marker: the only case)
             if self.sensor.may_leave_image:
-                pixels = np.minimum(np.maximum(pixels, 0.0), self._pixel_max[:4])
+                pixels = np.minimum(np.maximum(pixels, 0.0), self._pixel_max[: self.goal_size])
             self._last[marker] = pixels
+            return
+        kept = self._last[marker].copy()
+        for k in range(0, len(flags), 2):  # k / 2: the marker
+            if flags[k] and flags[k + 1]:
+                seen = pixels[2 * k : 2 * k + 4]
+                if self.sensor.may_leave_image:
+                    seen = np.minimum(np.maximum(seen, 0.0), self._pixel_max[:4])
+                kept[2 * k : 2 * k + 4] = seen
+        self._last[marker] = kept
 
     def _observation(self) -> dict[str, np.ndarray]:
         # Servo moves overshoot a commanded limit by up to ~1e-4 rad: clipped into the space.
@@ -530,7 +588,7 @@ class ReachEnv(ArmScene):
             joints = joints.copy()
         else:
             joints = hi(lo(joints, self.joint_lower), self.joint_upper)
-        achieved, desired = self._last["effector"], self._last["target"]  # (4,) px, in the image
+        achieved, desired = self._last["effector"], self._last["target"]  # (G,) px, in the image
         if not self.normalize:
             obs = {
                 "observation": joints,
@@ -539,9 +597,14 @@ class ReachEnv(ArmScene):
             }
         else:
             joints = hi(lo((joints - self._joint_mid) / self._joint_half, -1.0), 1.0)
-            goals = np.concatenate((achieved, desired))  # (8,) px
+            goals = np.concatenate((achieved, desired))  # (2G,) px
             goals = hi(lo(goals / self._pixel_half - 1.0, -1.0), 1.0)
-            obs = {"observation": joints, "achieved_goal": goals[:4], "desired_goal": goals[4:]}
+            size = self.goal_size
+            obs = {
+                "observation": joints,
+                "achieved_goal": goals[:size],
+                "desired_goal": goals[size:],
+            }
         if self._images is None:
             return obs
         obs.update(zip(PIXEL_KEYS, self._images.render(self.data), strict=True))
@@ -552,16 +615,17 @@ class ReachEnv(ArmScene):
         self.normalize = bool(normalize)
         self._joint_mid = (self.joint_upper + self.joint_lower) / 2  # rad
         self._joint_half = (self.joint_upper - self.joint_lower) / 2  # rad
-        self._pixel_max = np.tile([self.image_width - 1.0, self.image_height - 1.0], 4)  # px, (8,)
+        size = self.goal_size
+        self._pixel_max = np.tile([self.image_width - 1.0, self.image_height - 1.0], size)  # (2G,)
         self._pixel_half = self._pixel_max / 2  # px
         box = gym.spaces.Box
         if self.normalize:  # float32 actions, as Stable-Baselines3 recommends
             self.action_space = box(-1.0, 1.0, (self.joints,), dtype=np.float32)
             joints = box(-1.0, 1.0, (self.joints,), dtype=np.float64)
-            pixels = box(-1.0, 1.0, (4,), dtype=np.float64)
+            pixels = box(-1.0, 1.0, (size,), dtype=np.float64)
         else:
             joints = box(self.joint_lower, self.joint_upper, dtype=np.float64)
-            pixels = box(np.zeros(4), self._pixel_max[:4], dtype=np.float64)
+            pixels = box(np.zeros(size), self._pixel_max[:size], dtype=np.float64)
             self.action_space = joints
         image = box(0, 255, (self.pixels_height, self.pixels_width, 3), dtype=np.uint8)
         spaces = {
@@ -574,18 +638,20 @@ class ReachEnv(ArmScene):
         self.observation_space = gym.spaces.Dict({k: spaces[k] for k in OBS_MODES[self.obs_mode]})
 
     def _goal_pixels(self, q: list) -> list:
-        """Normalised goal coordinates (4 floats or arrays) -> pixels, elementwise."""
-        return [(x + 1.0) * h for x, h in zip(q, self._pixel_half[:4].tolist(), strict=True)]
+        """Normalised goal coordinates (G floats or arrays) -> pixels, elementwise."""
+        half = self._pixel_half[: self.goal_size].tolist()
+        return [(x + 1.0) * h for x, h in zip(q, half, strict=True)]
 
     def _info(self, clipped: bool, settle_time: float) -> StepInfo:
-        target = self.data.mocap_pos[0].copy()
+        target = self.data.mocap_pos[self.target_mocap_id].copy()
         effector = self.sensed_point()
         distance = math.dist(target.tolist(), effector.tolist())
-        du, dv, du2, dv2 = (self._last["effector"] - self._last["target"]).tolist()
+        du_dv = (self._last["effector"] - self._last["target"]).tolist()
+        image_errors = [math.hypot(du, dv) for du, dv in zip(du_dv[::2], du_dv[1::2], strict=True)]
         return StepInfo(
             {
                 "distance": distance,
-                "pixel_error": 0.5 * (math.hypot(du, dv) + math.hypot(du2, dv2)),
+                "pixel_error": sum(image_errors) / len(image_errors),
                 "is_success": distance < self.success_threshold,
                 "visible": all(self._visible_target.tolist() + self._visible_effector.tolist()),
                 "visible_target": self._visible_target.copy(),

@@ -14,7 +14,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from envs.robots import ROBOTS, RobotSpec
+from envs.robots import ROBOTS, MarkerSet, RobotSpec
 from envs.sensing.foveated import FoveatedSensing
 from envs.sensing.stereo import StereoRig
 from envs.sizes import check_image_size
@@ -22,7 +22,8 @@ from models import load_model
 
 #: Default sensing image size, pixels.
 IMAGE_WIDTH, IMAGE_HEIGHT = 320, 240
-#: Geom group that no camera or viewer of the project draws: markers of other joint options.
+#: Geom group that no camera or viewer of the project draws: markers of other joint options,
+#: and the geoms of the robot's other tasks (:attr:`RobotSpec.task_geoms`).
 HIDDEN_GROUP = 5
 
 
@@ -35,6 +36,8 @@ class ArmScene(gym.Env):
             sensed point (:attr:`RobotSpec.sensed`) and its green marker, the only one drawn.
         width, height: sensing image size in pixels, in the cameras' aspect ratio
             (:attr:`RobotSpec.image_aspect`).
+        markers: the task's scene, sensed site and marker spheres (default: the reach task's,
+            :meth:`RobotSpec.reach_markers`); the geoms of the robot's other tasks are hidden.
     Raises:
         ImageSizeError: a size that is not whole pixels, too small, or of another aspect ratio.
 
@@ -42,11 +45,14 @@ class ArmScene(gym.Env):
     the first rendering (GL resources are not pickled).
     """
 
-    def __init__(self, robot: str, joints: int, width: int, height: int) -> None:
+    def __init__(
+        self, robot: str, joints: int, width: int, height: int, markers: MarkerSet | None = None
+    ) -> None:
         self.spec_robot: RobotSpec = ROBOTS[robot]
         width, height = check_image_size(width, height, self.spec_robot.image_aspect)
         self.image_width, self.image_height = width, height
-        self.model = load_model(robot)
+        self.markers = self.spec_robot.reach_markers(joints) if markers is None else markers
+        self.model = load_model(robot, scene_file=self.markers.scene)
         self.data = mujoco.MjData(self.model)
         self._home = self.model.key("home").id
         self._joint_ids = np.array([self.model.joint(f"joint{i + 1}").id for i in range(joints)])
@@ -55,12 +61,18 @@ class ArmScene(gym.Env):
         self._dof_ids = self.model.jnt_dofadr[self._joint_ids]
         self.joint_lower = self.model.jnt_range[self._joint_ids, 0].copy()  # rad
         self.joint_upper = self.model.jnt_range[self._joint_ids, 1].copy()  # rad
-        self._site = self.model.site(self.spec_robot.sensed[joints]).id
-        marker = self.spec_robot.markers[joints]
-        for name in set(self.spec_robot.markers.values()) - {marker}:
-            self.model.geom_group[self.model.geom(name).id] = HIDDEN_GROUP
-        self._marker_radius = float(self.model.geom_size[self.model.geom(marker).id][0])  # m
-        self._target_radius = float(self.model.geom_size[self.model.geom("target").id][0])  # m
+        self._site = self.model.site(self.markers.site).id
+        for name in sorted(self.spec_robot.task_geoms - set(self.markers.geoms)):
+            geom = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
+            if geom >= 0:  # the object's geoms are only in the pose task's scene
+                self.model.geom_group[geom] = HIDDEN_GROUP
+        self._effector_geoms = np.array([self.model.geom(g).id for g in self.markers.effector])
+        self._target_geoms = np.array([self.model.geom(g).id for g in self.markers.target])
+        self._target_mocap = int(
+            self.model.body_mocapid[self.model.body(self.markers.target_body).id]
+        )
+        self._marker_radius = float(self.model.geom_size[self._effector_geoms[0]][0])  # m
+        self._target_radius = float(self.model.geom_size[self._target_geoms[0]][0])  # m
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
         mujoco.mj_forward(self.model, self.data)
         self.stereo = StereoRig(self.model, self.data, height, width)
@@ -120,6 +132,21 @@ class ArmScene(gym.Env):
     def sensed_site_id(self) -> int:
         """MuJoCo id of the sensed site."""
         return self._site
+
+    @property
+    def effector_geom_ids(self) -> np.ndarray:
+        """MuJoCo ids (M,) of the effector's marker spheres, in the task's marker order."""
+        return self._effector_geoms.copy()
+
+    @property
+    def target_geom_ids(self) -> np.ndarray:
+        """MuJoCo ids (M,) of the target's marker spheres, in the task's marker order."""
+        return self._target_geoms.copy()
+
+    @property
+    def target_mocap_id(self) -> int:
+        """Index in ``data.mocap_pos`` of the target's mocap body."""
+        return self._target_mocap
 
     @property
     def marker_radius(self) -> float:

@@ -46,8 +46,15 @@ def robot_path(name: str) -> Path:
     return model_dir(name) / f"{name}.xml"
 
 
-def load_model(name: str, scene: bool = True) -> mujoco.MjModel:
-    """Compile the scene (or the robot alone) of robot ``name``."""
+def load_model(name: str, scene: bool = True, scene_file: str = "scene.xml") -> mujoco.MjModel:
+    """Compile the scene (or the robot alone) of robot ``name``.
+
+    Args:
+        scene_file: which scene of the robot's folder (``scene_grasp.xml``: the pose task's).
+    """
     import mujoco
 
-    return mujoco.MjModel.from_xml_path(str(scene_path(name) if scene else robot_path(name)))
+    path = model_dir(name) / scene_file if scene else robot_path(name)
+    if not path.is_file():
+        raise UnknownModelError(f"robot {name!r} has no scene file {scene_file!r} in {path.parent}")
+    return mujoco.MjModel.from_xml_path(str(path))

@@ -44,8 +44,21 @@ class MarkerColour:
         return masks[0]
 
 
-RED_TARGET = MarkerColour("target", True, ((0, 8), (172, 179)))
-GREEN_EFFECTOR = MarkerColour("effector", False, ((45, 75),), min_value=10)
+RED_HUES, GREEN_HUES, BLUE_HUES = ((0, 8), (172, 179)), ((45, 75),), ((105, 135),)
+RED_TARGET = MarkerColour("target", True, RED_HUES)
+GREEN_EFFECTOR = MarkerColour("effector", False, GREEN_HUES, min_value=10)
+#: The pose task's markers (red, green, blue: ``models.puma560.grasp.MARKER_COLOURS``): the
+#: object's, sensed at reset with the robot out of view, and the hand's, sensed with the robot.
+#: The two frames share colours; they are never drawn together. The floor and the robot are
+#: grey (saturation far below ``min_saturation``), the object's handle a pale sand.
+GRASP_OBJECT = tuple(
+    MarkerColour(f"object_{name}", True, hues)
+    for name, hues in (("red", RED_HUES), ("green", GREEN_HUES), ("blue", BLUE_HUES))
+)
+GRASP_HAND = tuple(
+    MarkerColour(f"hand_{name}", False, hues, min_value=10)
+    for name, hues in (("red", RED_HUES), ("green", GREEN_HUES), ("blue", BLUE_HUES))
+)
 
 
 @dataclass(frozen=True)

@@ -1,11 +1,14 @@
-"""How a reach env senses its two markers, chosen once at construction: one sensor per mode.
+"""How an env senses its markers, chosen once at construction: one sensor per mode.
 
-Every sensor has the same two calls, each giving pixels (4,) (u_left, v_left, u_right, v_right),
-NaN in a camera that did not see the marker, and visible (2,) bool per camera:
+A task senses M marker spheres on the target (the reach task: the red target; the pose task:
+the object's three) and M on the arm (the green marker; the hand's three). Every sensor has the
+same two calls, each giving pixels (4M,) (u_left, v_left, u_right, v_right per marker, in the
+task's marker order), NaN in a camera that did not see a marker, and visible (2M,) bool (per
+marker, per camera: one flag per (u, v) pair of the pixels):
 
-- :meth:`Sensor.sense_target` (the red target, at reset, with the robot out of view),
-- :meth:`Sensor.sense_effector` (the green marker at the sensed point, after a move), given
-  where the marker is expected (the target's sensed pixels: where a reach aims).
+- :meth:`Sensor.sense_target` (the target's markers, at reset, with the robot out of view),
+- :meth:`Sensor.sense_effector` (the arm's markers, after a move), given where they are
+  expected (the target's sensed pixels: where a reach or a grasp aims).
 
 A sensor keeps no GL resources of its own: rendering goes through the scene's
 :class:`~envs.sensing.stereo.StereoRig`, whose renderers start at the first rendering, so an
@@ -16,15 +19,23 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from typing import Protocol
 
 import numpy as np
 
 from envs.sensing.foveated import FoveatedSensing
-from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
+from envs.sensing.marker_detection import MarkerColour
 from envs.sensing.stereo import StereoRig
 
-Sighting = tuple[np.ndarray, np.ndarray]  # pixels (4,) px, visible (2,) bool
+Sighting = tuple[np.ndarray, np.ndarray]  # pixels (4M,) px, visible (2M,) bool
+
+
+class SensedMarkers(Protocol):
+    """The colours of a task's markers (:class:`envs.robots.MarkerSet` has them)."""
+
+    effector_colours: tuple[MarkerColour, ...]
+    target_colours: tuple[MarkerColour, ...]
 
 
 class SensedScene(Protocol):
@@ -32,14 +43,26 @@ class SensedScene(Protocol):
     the environments and does not import them)."""
 
     stereo: StereoRig
-    sensed_site_id: int
+    markers: SensedMarkers
+    effector_geom_ids: np.ndarray
+    target_geom_ids: np.ndarray
     marker_radius: float
     target_radius: float
     fovea: FoveatedSensing
 
 
+def joined(sightings: Sequence[Sighting]) -> Sighting:
+    """One sighting (4M,), (2M,) of M markers' sightings (4,), (2,), in their order."""
+    if len(sightings) == 1:
+        return sightings[0]
+    return (
+        np.concatenate([pixels for pixels, _ in sightings]),
+        np.concatenate([visible for _, visible in sightings]),
+    )
+
+
 class Sensor(ABC):
-    """Senses the target and the effector marker of one scene."""
+    """Senses the target's and the effector's markers of one scene."""
 
     #: Whether a sensed centre may lie outside the image (a rendered centre's sub-pixel
     #: perspective correction can shift it out; the env then clips it into the image).
@@ -47,32 +70,32 @@ class Sensor(ABC):
 
     @abstractmethod
     def sense_target(self, data) -> Sighting:
-        """The target's centre, from ``data`` (positions computed)."""
+        """The target markers' centres, from ``data`` (positions computed)."""
 
     @abstractmethod
     def sense_effector(self, data, expected: np.ndarray) -> Sighting:
-        """The effector marker's centre; ``expected`` (4,) px is where it is expected (NaN
+        """The effector markers' centres; ``expected`` (4M,) px is where they are expected (NaN
         where not known)."""
 
 
 class ProjectSensor(Sensor):
-    """The exact pinhole projection of the target's and the sensed site's centres; a camera
-    sees a point in front of it that projects inside its image [0, width - 1] × [0, height - 1].
+    """The exact pinhole projection of the marker spheres' centres; a camera sees a point in
+    front of it that projects inside its image [0, width - 1] × [0, height - 1].
 
     Args:
-        stereo: the scene's rig; site: MuJoCo id of the sensed site.
+        stereo: the scene's rig; target, effector: MuJoCo ids (M,) of the marker geoms.
     """
 
     may_leave_image = False
 
-    def __init__(self, stereo: StereoRig, site: int) -> None:
-        self.stereo, self.site = stereo, site
+    def __init__(self, stereo: StereoRig, target: np.ndarray, effector: np.ndarray) -> None:
+        self.stereo, self.target, self.effector = stereo, target, effector
 
     def sense_target(self, data) -> Sighting:
-        return self._project(data.mocap_pos[0])
+        return joined([self._project(data.geom_xpos[g]) for g in self.target])
 
     def sense_effector(self, data, expected: np.ndarray) -> Sighting:
-        return self._project(data.site_xpos[self.site])
+        return joined([self._project(data.geom_xpos[g]) for g in self.effector])
 
     def _project(self, point: np.ndarray) -> Sighting:
         (u1, v1, u2, v2), (d1, d2) = self.stereo.project_point(point)
@@ -87,41 +110,62 @@ class ProjectSensor(Sensor):
 
 
 class RenderSensor(Sensor):
-    """Both whole camera images rendered and the markers found by colour
-    (:meth:`StereoRig.sense`: the target from its blob, the marker from its outline fitted with
-    its known radius).
+    """Both whole camera images rendered once per call and every marker found by its colour
+    (:meth:`StereoRig.sense_many`: the target's from their blobs, the arm's from their
+    outlines fitted with their known radius).
 
     Args:
-        stereo: the scene's rig; marker_radius: the effector marker's radius, m.
+        stereo: the scene's rig; markers: their colours; marker_radius: the arm's markers', m.
     """
 
-    def __init__(self, stereo: StereoRig, marker_radius: float) -> None:
+    def __init__(self, stereo: StereoRig, markers: SensedMarkers, marker_radius: float) -> None:
         self.stereo, self.marker_radius = stereo, marker_radius
+        self.target_colours, self.effector_colours = (
+            markers.target_colours,
+            markers.effector_colours,
+        )
 
     def sense_target(self, data) -> Sighting:
-        return self.stereo.sense(data, RED_TARGET)
+        return joined(self.stereo.sense_many(data, self.target_colours))
 
     def sense_effector(self, data, expected: np.ndarray) -> Sighting:
-        return self.stereo.sense(data, GREEN_EFFECTOR, self.marker_radius)
+        return joined(self.stereo.sense_many(data, self.effector_colours, self.marker_radius))
 
 
 class FoveatedSensor(Sensor):
-    """Rendering in small dense windows (:class:`FoveatedSensing`): the target from the whole
-    images first, then windows where it is; the marker in windows about where it is expected.
+    """Rendering in small dense windows (:class:`FoveatedSensing`), one marker at a time: each
+    target marker from the whole images first, then windows where it is; each arm marker in
+    windows about where it is expected.
 
     Args:
-        fovea: the scene's foveated sensing; marker_radius, target_radius: m.
+        fovea: the scene's foveated sensing; markers: their colours; marker_radius,
+            target_radius: m.
     """
 
-    def __init__(self, fovea: FoveatedSensing, marker_radius: float, target_radius: float):
+    def __init__(
+        self,
+        fovea: FoveatedSensing,
+        markers: SensedMarkers,
+        marker_radius: float,
+        target_radius: float,
+    ) -> None:
         self.fovea = fovea
+        self.target_colours, self.effector_colours = (
+            markers.target_colours,
+            markers.effector_colours,
+        )
         self.marker_radius, self.target_radius = marker_radius, target_radius
 
     def sense_target(self, data) -> Sighting:
-        return self.fovea.sense(data, RED_TARGET, self.target_radius)
+        return joined([self.fovea.sense(data, c, self.target_radius) for c in self.target_colours])
 
     def sense_effector(self, data, expected: np.ndarray) -> Sighting:
-        return self.fovea.sense(data, GREEN_EFFECTOR, self.marker_radius, expected)
+        return joined(
+            [
+                self.fovea.sense(data, c, self.marker_radius, expected[4 * k : 4 * k + 4])
+                for k, c in enumerate(self.effector_colours)
+            ]
+        )
 
 
 #: Sensing modes, by the name an env's ``sensing`` argument takes.
@@ -131,9 +175,9 @@ SENSING_MODES = ("render", "project", "foveated")
 def make_sensor(mode: str, scene: SensedScene) -> Sensor:
     """The sensor of ``mode`` (one of SENSING_MODES) for ``scene``."""
     if mode == "project":
-        return ProjectSensor(scene.stereo, scene.sensed_site_id)
+        return ProjectSensor(scene.stereo, scene.target_geom_ids, scene.effector_geom_ids)
     if mode == "render":
-        return RenderSensor(scene.stereo, scene.marker_radius)
+        return RenderSensor(scene.stereo, scene.markers, scene.marker_radius)
     if mode == "foveated":
-        return FoveatedSensor(scene.fovea, scene.marker_radius, scene.target_radius)
+        return FoveatedSensor(scene.fovea, scene.markers, scene.marker_radius, scene.target_radius)
     raise ValueError(f"unknown sensing {mode!r}; valid: {', '.join(SENSING_MODES)}")

@@ -271,17 +271,32 @@ class StereoRig(CameraPair):
         Returns:
             pixels (4,) of the sphere centre's image (NaN where not visible), visible (2,) bool.
         """
+        return self.sense_many(data, (marker,), radius, windows)[0]
+
+    def sense_many(
+        self,
+        data,
+        markers: Sequence[MarkerColour],
+        radius: float | None = None,
+        windows: Sequence[Window] | None = None,
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """:meth:`sense` of several spheres of different colours (all targets, or all on the
+        arm, each of ``radius``), found in one rendering of both cameras: one (pixels (4,),
+        visible (2,)) per marker, in their order."""
+        views, images = self._render(data, markers[0], windows)
         if radius is not None:
-            return self.sense_sphere(data, marker, radius, windows)[:2]
-        views, images = self._render(data, marker, windows)
-        pixels = np.full(4, np.nan)
-        for k, ((rgb, _), view) in enumerate(zip(images, views, strict=True)):
-            if view.window != Window.full(self.height, self.width):
-                raise ValueError("centroid sensing (no radius) needs whole images")
-            found = find_sphere(rgb, marker, view.center, view.focal)
-            if found is not None:
-                pixels[2 * k : 2 * k + 2] = found.uv
-        return pixels, np.isfinite(pixels[::2])
+            return [self._sphere(views, images, m, radius)[:2] for m in markers]
+        found = []
+        for marker in markers:
+            pixels = np.full(4, np.nan)
+            for k, ((rgb, _), view) in enumerate(zip(images, views, strict=True)):
+                if view.window != Window.full(self.height, self.width):
+                    raise ValueError("centroid sensing (no radius) needs whole images")
+                sighting = find_sphere(rgb, marker, view.center, view.focal)
+                if sighting is not None:
+                    pixels[2 * k : 2 * k + 2] = sighting.uv
+            found.append((pixels, np.isfinite(pixels[::2])))
+        return found
 
     def sense_sphere(
         self,
@@ -294,6 +309,16 @@ class StereoRig(CameraPair):
         (:class:`SphereSighting`): which views show its blob clear of their border (a larger
         view would show no more of it), which show none of it, and the fitted centre."""
         views, images = self._render(data, marker, windows)
+        return self._sphere(views, images, marker, radius)
+
+    def _sphere(
+        self,
+        views: list[View],
+        images: list[tuple[np.ndarray, np.ndarray]],
+        marker: MarkerColour,
+        radius: float,
+    ) -> SphereSighting:
+        """The sphere of ``marker``'s colour and ``radius`` (m) in rendered views."""
         size = (self.height, self.width)
         outlines = [
             _outline(rgb, depth, marker, cam, view.window, radius, size)
