@@ -1,8 +1,9 @@
 """Gymnasium environments and stereo camera sensing.
 
 Importing this package chooses the off-screen GL back-end (before mujoco is imported) and
-registers ``RiacsReach-v0``, ``PumaReach-v0`` and ``PumaTrack-v0`` with Gymnasium. ``gym.make``
-returns the reach envs in :class:`envs.goal_env.GoalEnvWrapper`, which has ``compute_reward``.
+registers ``RiacsReach-v0``, ``PumaReach-v0``, ``PumaGrasp-v0`` and ``PumaTrack-v0`` with
+Gymnasium. ``gym.make`` returns the reach and pose envs in :class:`envs.goal_env.GoalEnvWrapper`,
+which has ``compute_reward``.
 """
 
 from envs.sensing.rendering import configure_gl_backend
@@ -27,6 +28,12 @@ gym.register(
     id="PumaReach-v0",
     entry_point="envs.reach:ReachEnv",
     kwargs={"robot": "puma560"},
+    max_episode_steps=MAX_EPISODE_STEPS,
+    additional_wrappers=(GOAL_ENV_WRAPPER,),  # compute_reward on what gym.make returns
+)
+gym.register(
+    id="PumaGrasp-v0",
+    entry_point="envs.grasp:GraspEnv",
     max_episode_steps=MAX_EPISODE_STEPS,
     additional_wrappers=(GOAL_ENV_WRAPPER,),  # compute_reward on what gym.make returns
 )

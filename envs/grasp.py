@@ -1,0 +1,205 @@
+"""GraspEnv: bring the PUMA's hand to an object's position and orientation, seen by two cameras."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from envs import arguments
+from envs.pose_reward import pose_reward_terms
+from envs.reach import PIXELS_HEIGHT, PIXELS_WIDTH, SUCCESS_THRESHOLD, ReachEnv
+from envs.reward import seen_flags
+from envs.robots import ROBOTS, MarkerSet
+from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH
+from envs.step_info import StepInfo
+from models.puma560 import BASE_POS
+from models.puma560.grasp import orientation_angle, sample_grasp_pose
+from models.workspace import BoxWorkspace
+
+#: The Gymnasium ids of the pose envs (registered in envs/__init__.py).
+GRASP_ENV_IDS = ("PumaGrasp-v0",)
+#: rad: success needs the hand's orientation within this angle of the object's (5°).
+ORIENTATION_THRESHOLD = math.radians(5.0)
+#: m/rad: the orientation term's weight. The markers sit 80-140 mm from the frame's origin, so
+#: an orientation error of θ moves them by about 0.1·θ m: with this weight both terms measure
+#: how far the markers are from where they should be, in metres, and neither swamps the other
+#: (1° costs 1.7 mm; the 5° success bound 8.7 mm against the 5 mm of the position).
+ORIENTATION_WEIGHT = 0.1
+
+
+class GraspEnv(ReachEnv):
+    """Bring the PUMA 560's gripper to an object's pose, seen only through two cameras.
+
+    ``PumaGrasp-v0``: the PUMA 560 carries a two-finger gripper with three marker spheres (red,
+    green, blue: ``models.puma560.grasp.MARKER_OFFSETS`` in the tool frame of site ``tcp``). The
+    object to grasp is a mocap body carrying the same three markers in its own frame (and a
+    handle the cameras' colour sensing ignores): the hand grasps it when the two frames coincide,
+    and then every hand marker lies on the object's marker of its colour. All six joints are
+    commanded. The machinery (moves, sensing modes, perturbations, viewer, rendering, spaces) is
+    :class:`envs.reach.ReachEnv`'s; only the target and the reward differ.
+
+    ## Action space
+    ``Box(joint_lower, joint_upper, (6,), float64)``: absolute command in radians for
+    ``joint1``..``joint6``, as ``PumaReach-v0`` with ``joints=6`` (clipped into the ranges,
+    ``info["clipped"]``; NaN, inf, a wrong shape or a non-number raise ``ValueError``).
+
+    ## Observation space
+    ``Dict`` in the Gymnasium-Robotics goal convention:
+
+    | key | shape | unit | meaning |
+    |---|---|---|---|
+    | ``observation`` | (6,) | rad | joint angles |
+    | ``achieved_goal`` | (12,) | px | the hand's markers: (u_left, v_left, u_right, v_right) each |
+    | ``desired_goal`` | (12,) | px | the object's markers, same layout |
+    | ``pixels_left``, ``pixels_right`` | (H, W, 3) uint8 | | camera images (``obs_mode``) |
+
+    Markers in the order red, green, blue; pixels of the 320×240 sensing images (``width`` ×
+    ``height``), each bounded by the image. The object's markers are sensed once per episode, at
+    reset, with the robot out of view; the hand's after every move, with the robot but without
+    the object. A marker not seen by both cameras keeps its last valid sensing (before any, the
+    image centre). ``normalize`` and ``obs_mode`` act as in ``ReachEnv``.
+
+    ## Reward
+    ``reward = reward_distance + reward_orientation + reward_unseen``, computed from the goals
+    alone (``envs.pose_reward``), so ``reward == compute_reward(achieved_goal, desired_goal,
+    info)`` bit for bit, for batches too, and relabelling (HER) works:
+
+    - ``reward_distance``: minus the distance (m) between the frames' origins found from the
+      triangulated markers (least-squares rigid fit, ``pose_from_points``).
+    - ``reward_orientation``: minus ``ORIENTATION_WEIGHT`` (0.1 m/rad) times the angle between
+      the two fitted orientations (rad).
+    - ``reward_unseen``: minus the PUMA's reach (0.86 m) when some hand marker was not seen by
+      both cameras after the move (``info["visible_effector"]``), else 0.
+
+    Success is judged on the ground truth: ``info["is_success"]`` is ``distance <
+    success_threshold`` and ``orientation_error < orientation_threshold``.
+
+    ## Starting state
+    ``reset`` draws the object's pose with ``self.np_random``
+    (``models.puma560.grasp.sample_grasp_pose``): the wrist centre uniform in the reach task's
+    workspace box, the orientation within 30° of the hand's at the taught keyframe ``ready``,
+    drawn again until the right-arm, elbow-above branch of the exact pose IK has every joint in
+    range (those joints are :attr:`target_joints`). The arm returns to the keyframe ``home``
+    unless ``reset(options={"keep_arm": True})``; ``reset(options={"perturb": change})`` as in
+    ``ReachEnv`` (a tool change moves the hand's three markers along the tool axis).
+
+    ## Episode end
+    Never terminates; truncated after ``max_episode_steps`` moves (registered default 4).
+
+    ## Info
+    Everything ``ReachEnv`` gives, over all three markers: ``distance`` (m, ground truth, tool
+    point to the object's origin), ``pixel_error`` (px, mean over markers and cameras),
+    ``visible``, ``visible_target`` and ``visible_effector`` ((2,) bool per camera: all three
+    markers seen by it), ``target_pos``, ``effector_pos``, ``clipped``, ``settle_time``,
+    ``is_success``; and ``orientation_error`` (rad, ground truth angle between the hand's and
+    the object's orientations), ``target_pose`` and ``effector_pose`` ((4, 4) world poses of the
+    object and of the tool frame), ``reward_distance``, ``reward_orientation``,
+    ``reward_unseen``.
+
+    ## Arguments
+    - ``sensing`` (``"render"``): ``"render"``, ``"project"`` or ``"foveated"``, as in
+      ``ReachEnv``; each marker is sensed like the reach task's one (foveated: the hand's
+      markers in windows about the object's markers of the same colour).
+    - ``control`` (``"servo"``): ``"servo"`` or ``"kinematic"``, as in ``ReachEnv``.
+    - ``success_threshold`` (0.005): metres.
+    - ``orientation_threshold`` (0.08726646259971647): radians (5°).
+    - ``width`` (320): width of the sensing images in pixels.
+    - ``height`` (240): their height (4:3).
+    - ``render_mode`` (None): ``"rgb_array"`` (both views and the overview, each object marker
+      crosshaired and each detected hand marker circled) or ``"human"``.
+    - ``obs_mode`` (``"state"``): ``"state"``, ``"pixels"`` or ``"state_pixels"``.
+    - ``pixels_width`` (84): width of each camera image of the pixel modes.
+    - ``pixels_height`` (84): their height.
+    - ``normalize`` (False): action, joints and goals in [-1, 1].
+    """
+
+    REWARD_TERMS = ("reward_distance", "reward_orientation", "reward_unseen")
+    _goal_layout = "u_left, v_left, u_right, v_right of the red, green and blue markers"
+
+    def __init__(
+        self,
+        sensing: str = "render",
+        control: str = "servo",
+        success_threshold: float = SUCCESS_THRESHOLD,
+        orientation_threshold: float = ORIENTATION_THRESHOLD,
+        width: int = IMAGE_WIDTH,
+        height: int = IMAGE_HEIGHT,
+        render_mode: str | None = None,
+        obs_mode: str = "state",
+        pixels_width: int = PIXELS_WIDTH,
+        pixels_height: int = PIXELS_HEIGHT,
+        normalize: bool = False,
+    ) -> None:
+        threshold = arguments.positive_number("orientation_threshold (rad)", orientation_threshold)
+        super().__init__(
+            robot="puma560",
+            joints=6,
+            sensing=sensing,
+            control=control,
+            success_threshold=success_threshold,
+            width=width,
+            height=height,
+            render_mode=render_mode,
+            normalize=normalize,
+            obs_mode=obs_mode,
+            pixels_width=pixels_width,
+            pixels_height=pixels_height,
+        )
+        self.orientation_threshold = threshold
+        self._object = self.model.body(self.markers.target_body).id
+        #: The exact IK joints (6,) rad that grasp the current object (ground truth, for
+        #: evaluation and tests; a learner does not see them).
+        self.target_joints = np.full(6, np.nan)
+
+    def _task_markers(self, robot: str, joints: int) -> MarkerSet | None:
+        return ROBOTS[robot].grasp
+
+    def _draw_target(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """The object's position (3,) m and orientation quaternion (4,), from
+        :func:`~models.puma560.grasp.sample_grasp_pose` in the (shifted) workspace box."""
+        shift = self.perturbation.base_shift
+        box = self.spec_robot.workspace
+        box = BoxWorkspace(box.lower + shift, box.upper + shift)
+        pose, self.target_joints = sample_grasp_pose(self.np_random, box, BASE_POS + shift)
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, pose[:3, :3].ravel())
+        return pose[:3, 3], quat
+
+    def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, ...]:
+        """(reward_distance, reward_orientation, reward_unseen) through
+        :func:`envs.pose_reward.pose_reward_terms`."""
+        shape, a_q, d_q = self._goal_coordinates(achieved_goal, desired_goal)
+        return pose_reward_terms(
+            self.goal_points.cameras,
+            a_q,
+            d_q,
+            seen_flags(info, shape),
+            self.reach,
+            ORIENTATION_WEIGHT,
+        )
+
+    def target_pose(self) -> np.ndarray:
+        """World pose (4, 4) of the object (ground truth)."""
+        pose = np.eye(4)
+        pose[:3, :3] = self.data.xmat[self._object].reshape(3, 3)
+        pose[:3, 3] = self.data.xpos[self._object]
+        return pose
+
+    def effector_pose(self) -> np.ndarray:
+        """World pose (4, 4) of the hand's tool frame, site ``tcp`` (ground truth)."""
+        pose = np.eye(4)
+        pose[:3, :3] = self.data.site_xmat[self.sensed_site_id].reshape(3, 3)
+        pose[:3, 3] = self.data.site_xpos[self.sensed_site_id]
+        return pose
+
+    def _info(self, clipped: bool, settle_time: float) -> StepInfo:
+        info = super()._info(clipped, settle_time)
+        target, effector = self.target_pose(), self.effector_pose()
+        error = float(orientation_angle(effector[:3, :3], target[:3, :3]))
+        info["orientation_error"] = error
+        info["target_pose"], info["effector_pose"] = target, effector
+        info["is_success"] = info["is_success"] and error < self.orientation_threshold
+        return info
