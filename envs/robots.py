@@ -32,6 +32,9 @@ class MarkerSet:
             gripper, marker posts, the object's handle).
         target_body: the mocap body that reset places.
         effector_colours, target_colours: the colour of each marker sphere, in their order.
+        target_outline: rendered sensing finds the target's markers from their outlines
+            fitted with their radius, as the arm's (a handle or a post may hide part of one),
+            instead of from their blobs (the reach task's lone target sphere).
     """
 
     scene: str
@@ -42,6 +45,7 @@ class MarkerSet:
     target_body: str = "target"
     effector_colours: tuple[MarkerColour, ...] = (GREEN_EFFECTOR,)
     target_colours: tuple[MarkerColour, ...] = (RED_TARGET,)
+    target_outline: bool = False
 
     @property
     def geoms(self) -> tuple[str, ...]:
@@ -68,6 +72,7 @@ PUMA_GRASP = MarkerSet(
     target_body="object",
     effector_colours=GRASP_HAND,
     target_colours=GRASP_OBJECT,
+    target_outline=True,
 )
 
 

@@ -32,10 +32,12 @@ Sighting = tuple[np.ndarray, np.ndarray]  # pixels (4M,) px, visible (2M,) bool
 
 
 class SensedMarkers(Protocol):
-    """The colours of a task's markers (:class:`envs.robots.MarkerSet` has them)."""
+    """The colours of a task's markers and how the target's are found when rendered
+    (:class:`envs.robots.MarkerSet` has them)."""
 
     effector_colours: tuple[MarkerColour, ...]
     target_colours: tuple[MarkerColour, ...]
+    target_outline: bool
 
 
 class SensedScene(Protocol):
@@ -111,22 +113,27 @@ class ProjectSensor(Sensor):
 
 class RenderSensor(Sensor):
     """Both whole camera images rendered once per call and every marker found by its colour
-    (:meth:`StereoRig.sense_many`: the target's from their blobs, the arm's from their
-    outlines fitted with their known radius).
+    (:meth:`StereoRig.sense_many`: the arm's from their outlines fitted with their known radius,
+    the target's from their blobs or, with ``markers.target_outline``, like the arm's).
 
     Args:
-        stereo: the scene's rig; markers: their colours; marker_radius: the arm's markers', m.
+        stereo: the scene's rig; markers: their colours; marker_radius, target_radius: m.
     """
 
-    def __init__(self, stereo: StereoRig, markers: SensedMarkers, marker_radius: float) -> None:
+    def __init__(
+        self,
+        stereo: StereoRig,
+        markers: SensedMarkers,
+        marker_radius: float,
+        target_radius: float,
+    ) -> None:
         self.stereo, self.marker_radius = stereo, marker_radius
-        self.target_colours, self.effector_colours = (
-            markers.target_colours,
-            markers.effector_colours,
-        )
+        self.target_colours = markers.target_colours
+        self.effector_colours = markers.effector_colours
+        self.target_radius = target_radius if markers.target_outline else None
 
     def sense_target(self, data) -> Sighting:
-        return joined(self.stereo.sense_many(data, self.target_colours))
+        return joined(self.stereo.sense_many(data, self.target_colours, self.target_radius))
 
     def sense_effector(self, data, expected: np.ndarray) -> Sighting:
         return joined(self.stereo.sense_many(data, self.effector_colours, self.marker_radius))
@@ -177,7 +184,7 @@ def make_sensor(mode: str, scene: SensedScene) -> Sensor:
     if mode == "project":
         return ProjectSensor(scene.stereo, scene.target_geom_ids, scene.effector_geom_ids)
     if mode == "render":
-        return RenderSensor(scene.stereo, scene.markers, scene.marker_radius)
+        return RenderSensor(scene.stereo, scene.markers, scene.marker_radius, scene.target_radius)
     if mode == "foveated":
         return FoveatedSensor(scene.fovea, scene.markers, scene.marker_radius, scene.target_radius)
     raise ValueError(f"unknown sensing {mode!r}; valid: {', '.join(SENSING_MODES)}")
