@@ -1,0 +1,358 @@
+"""PumaGrasp-v0: the goal-env contract, spaces, reward against the ground truth, the exact-IK
+move, determinism, normalisation, perturbation, the documented defaults, and PumaReach-v0
+unchanged by the shared machinery."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import json
+import os
+import re
+import subprocess
+import sys
+import textwrap
+from importlib.util import find_spec
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import envs  # noqa: F401  (chooses the GL back-end, registers the envs)
+from envs import grasp
+from envs.goal_env import GoalEnvWrapper
+from envs.grasp import GRASP_ENV_IDS, ORIENTATION_WEIGHT, GraspEnv
+from models.puma560 import ARM_REACH, WORKSPACE
+from models.puma560.grasp import MAX_TILT, NOMINAL_ORIENTATION, orientation_angle
+from models.puma560.inverse import D6
+from models.puma560.kinematics import frames
+
+
+def _transitions(env: GraspEnv, episodes: int, seed: int) -> list[tuple]:
+    """(achieved, desired, info, reward) of every reset-free step: coarse moves near the
+    target's joints, and one far off (the hand out of view: unseen)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for episode in range(episodes):
+        env.reset(seed=seed + episode)
+        for move in range(3):
+            command = env.target_joints + rng.normal(0.0, 0.15, 6)
+            if move == 2 and episode % 2:  # the arm stretched up: the hand above the images
+                command = np.array([0.0, -np.pi / 2, np.pi / 2, 0.0, 0.0, 0.0])
+            command = np.clip(command, env.joint_lower, env.joint_upper)
+            if env.normalize:
+                command = (command - env._joint_mid) / env._joint_half
+            obs, reward, _, _, info = env.step(command)
+            out.append((obs["achieved_goal"], obs["desired_goal"], info, reward))
+    return out
+
+
+# -- Gymnasium API --------------------------------------------------------------------------------
+
+
+@pytest.mark.filterwarnings("ignore:.*symmetric and normalized")
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize(
+    ("sensing", "control"),
+    [("project", "kinematic"), ("render", "servo"), ("foveated", "kinematic")],
+)
+def test_check_env(sensing, control):
+    env = gym.make("PumaGrasp-v0", sensing=sensing, control=control)
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+@pytest.mark.filterwarnings("error")
+def test_check_env_normalized_has_no_warning():
+    env = gym.make("PumaGrasp-v0", sensing="project", control="kinematic", normalize=True)
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+def test_registration_wraps_the_goal_env():
+    assert GRASP_ENV_IDS == ("PumaGrasp-v0",)
+    env = gym.make("PumaGrasp-v0", sensing="project", control="kinematic")
+    assert isinstance(env, GoalEnvWrapper) and env.spec.max_episode_steps == 4
+    obs, info = env.reset(seed=1)
+    assert env.compute_reward(obs["achieved_goal"], obs["desired_goal"], info) == (
+        env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
+    )
+    env.close()
+
+
+def test_spaces_are_bounded_and_hold_every_observation():
+    env = GraspEnv(sensing="render", control="servo")
+    assert env.action_space.shape == (6,) and env.observation_space["observation"].shape == (6,)
+    for key in ("achieved_goal", "desired_goal"):
+        space = env.observation_space[key]
+        assert space.shape == (12,) and space.is_bounded()
+        np.testing.assert_array_equal(space.high, np.tile([319.0, 239.0], 6))
+    assert env.observation_space["observation"].is_bounded()
+    for achieved, desired, _, _ in _transitions(env, 2, seed=3):
+        assert env.observation_space["achieved_goal"].contains(achieved)
+        assert env.observation_space["desired_goal"].contains(desired)
+    env.close()
+
+
+# -- reward -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("sensing", "normalize"), [("render", False), ("project", True)])
+def test_reward_equals_compute_reward_bit_for_bit_single_and_batched(sensing, normalize):
+    env = GraspEnv(sensing=sensing, control="kinematic", normalize=normalize)
+    rows = _transitions(env, 4, seed=11)
+    assert any(not info["visible_effector"].all() for _, _, info, _ in rows)  # unseen included
+    for achieved, desired, info, reward in rows:
+        terms = [info[k] for k in GraspEnv.REWARD_TERMS]
+        assert reward == (terms[0] + terms[1]) + terms[2]
+        assert env.compute_reward(achieved, desired, info) == reward
+    achieved = np.stack([r[0] for r in rows])  # (N, 12)
+    desired = np.stack([r[1] for r in rows])
+    infos = [r[2] for r in rows]
+    rewards = np.array([r[3] for r in rows])
+    np.testing.assert_array_equal(env.compute_reward(achieved, desired, infos), rewards)
+    odd = slice(None, None, 2)  # a strided batch, and a 2-D one, as replay buffers pass them
+    np.testing.assert_array_equal(
+        env.compute_reward(achieved[odd], desired[odd], infos[odd]), rewards[odd]
+    )
+    n = 2 * (len(rows) // 2)
+    shaped = env.compute_reward(
+        achieved[:n].reshape(2, -1, 12),
+        desired[:n].reshape(2, -1, 12),
+        np.array(infos[:n], dtype=object).reshape(2, -1),
+    )
+    np.testing.assert_array_equal(shaped, rewards[:n].reshape(2, -1))
+    env.close()
+
+
+def test_reward_terms_are_the_ground_truth_in_project_mode():
+    """With exact projection the triangulated fit is exact: the terms are minus the ground-truth
+    distance, minus ORIENTATION_WEIGHT times the ground-truth angle, and the unseen penalty."""
+    env = GraspEnv(sensing="project", control="kinematic")
+    for _, _, info, reward in _transitions(env, 4, seed=21):
+        seen = info["visible_effector"].all()
+        assert info["reward_unseen"] == (0.0 if seen else -ARM_REACH)
+        if seen:
+            assert info["reward_distance"] == pytest.approx(-info["distance"], abs=1e-9)
+            want = -ORIENTATION_WEIGHT * info["orientation_error"]
+            assert info["reward_orientation"] == pytest.approx(want, abs=1e-9)
+        angle = orientation_angle(info["effector_pose"][:3, :3], info["target_pose"][:3, :3])
+        assert info["orientation_error"] == pytest.approx(float(angle), abs=1e-12)
+        tcp_to_object = np.linalg.norm(info["effector_pose"][:3, 3] - info["target_pose"][:3, 3])
+        assert info["distance"] == pytest.approx(tcp_to_object, abs=1e-12)
+    env.close()
+
+
+def test_wrong_goal_shape_is_one_clear_error():
+    env = GraspEnv(sensing="project", control="kinematic")
+    with pytest.raises(ValueError, match=r"goals are \(\.\.\., 12\) pixel vectors"):
+        env.compute_reward(np.zeros(4), np.zeros(4), None)
+    env.close()
+
+
+# -- the task -----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("control", ["kinematic", "servo"])
+def test_move_to_the_exact_ik_joints_grasps_the_object(control):
+    """The joints sample_grasp_pose returns put the tool frame on the object's frame: distance
+    and orientation error ≈ 0 (servo: settled within its tolerance), success, reward ≈ 0."""
+    env = GraspEnv(sensing="project", control=control)
+    tolerance = (1e-9, 1e-9) if control == "kinematic" else (5e-4, 5e-3)  # m, rad
+    for seed in range(6):
+        env.reset(seed=seed)
+        _, reward, _, _, info = env.step(env.target_joints)
+        assert info["distance"] < tolerance[0] and info["orientation_error"] < tolerance[1]
+        assert info["is_success"] and info["visible"]
+        assert -reward < tolerance[0] + ORIENTATION_WEIGHT * tolerance[1] + 1e-9
+    env.close()
+
+
+def test_objects_are_reachable_poses_within_the_tilt():
+    """The object's pose: its wrist point (D6 back along its z axis) inside the workspace box,
+    its orientation within MAX_TILT of the nominal; the target joints reach it (DH product)."""
+    env = GraspEnv(sensing="project", control="kinematic")
+    for seed in range(20):
+        _, info = env.reset(seed=seed)
+        pose = info["target_pose"]
+        wrist = pose[:3, 3] - D6 * pose[:3, 2]
+        assert WORKSPACE.contains(wrist[None])[0]
+        assert orientation_angle(pose[:3, :3], NOMINAL_ORIENTATION) <= MAX_TILT + 1e-12
+        tool = frames(env.target_joints)[6]  # frame 0 coordinates
+        np.testing.assert_allclose(tool[:3, :3], pose[:3, :3], atol=1e-9)
+        assert np.all(env.target_joints >= env.joint_lower)
+        assert np.all(env.target_joints <= env.joint_upper)
+    env.close()
+
+
+def test_success_needs_position_and_orientation():
+    env = GraspEnv(sensing="project", control="kinematic")
+    env.reset(seed=4)
+    turned = env.target_joints.copy()
+    turned[5] += 2 * grasp.ORIENTATION_THRESHOLD  # joint 6 turns the hand about the tool axis
+    _, _, _, _, info = env.step(turned)
+    assert info["distance"] < 1e-9 and info["orientation_error"] > grasp.ORIENTATION_THRESHOLD
+    assert not info["is_success"]
+    env.close()
+
+
+def test_same_seed_same_episode():
+    a, b = (GraspEnv(sensing="foveated", control="servo") for _ in range(2))
+    for env in (a, b):
+        env.reset(seed=9)
+    oa, ob = a.reset(seed=9)[0], b.reset(seed=9)[0]
+    for key in oa:
+        np.testing.assert_array_equal(oa[key], ob[key])
+    command = a.target_joints + 0.05
+    ra, rb = a.step(command), b.step(command)
+    for key in ra[0]:
+        np.testing.assert_array_equal(ra[0][key], rb[0][key])
+    assert ra[1] == rb[1] and ra[4]["settle_time"] == rb[4]["settle_time"]
+    a.close()
+    b.close()
+
+
+def test_normalized_goals_map_back_onto_the_pixels():
+    raw = GraspEnv(sensing="project", control="kinematic")
+    norm = GraspEnv(sensing="project", control="kinematic", normalize=True)
+    o_raw, _ = raw.reset(seed=5)
+    o_norm, _ = norm.reset(seed=5)
+    half = np.tile([319.0, 239.0], 6) / 2
+    for key in ("achieved_goal", "desired_goal"):
+        assert np.all(np.abs(o_norm[key]) <= 1.0)
+        np.testing.assert_allclose((o_norm[key] + 1.0) * half, o_raw[key], rtol=0, atol=1e-9)
+    assert norm.action_space.dtype == np.float32 and np.all(norm.action_space.high == 1.0)
+    raw.close()
+    norm.close()
+
+
+def test_tool_perturbation_moves_the_hand_markers_along_the_tool_axis():
+    env = GraspEnv(sensing="project", control="kinematic")
+    env.reset(seed=2)
+    env.set_joints(env.target_joints)
+    before = env.data.geom_xpos[env.effector_geom_ids].copy()  # (3, 3)
+    axis = env.effector_pose()[:3, 2]
+    env.perturb({"tool": 0.02})
+    env.set_joints(env.target_joints)
+    np.testing.assert_allclose(
+        env.data.geom_xpos[env.effector_geom_ids], before + 0.02 * axis, atol=1e-12
+    )
+    env.close()
+
+
+def test_rgb_array_and_pixel_observations():
+    env = GraspEnv(
+        sensing="project", control="kinematic", render_mode="rgb_array", obs_mode="state_pixels"
+    )
+    obs, _ = env.reset(seed=1)
+    assert obs["pixels_left"].shape == (84, 84, 3) and obs["observation"].shape == (6,)
+    frame = env.render()
+    assert frame.shape == (240, 3 * 320, 3)
+    env.close()
+
+
+# -- documented defaults ------------------------------------------------------------------------
+
+
+def test_docstring_pins_every_argument_default():
+    doc = inspect.getdoc(GraspEnv)
+    arguments = doc.split("## Arguments", 1)[1]
+    documented = {
+        name: ast.literal_eval(default.replace("``", ""))
+        for name, default in re.findall(r"^- ``(\w+)`` \((.+?)\):", arguments, flags=re.M)
+    }
+    signature = inspect.signature(GraspEnv.__init__).parameters
+    assert documented == {n: p.default for n, p in signature.items() if n != "self"}
+    assert documented["orientation_threshold"] == pytest.approx(np.radians(5.0), abs=1e-15)
+    weight = float(re.search(r"``ORIENTATION_WEIGHT`` \(([\d.]+) m/rad\)", doc).group(1))
+    assert weight == ORIENTATION_WEIGHT
+    steps = int(re.search(r"registered default (\d+)", doc).group(1))
+    assert gym.spec("PumaGrasp-v0").max_episode_steps == steps
+
+
+# -- PumaReach unchanged ------------------------------------------------------------------------
+
+#: PumaReach-v0, reset(seed=3), one step to the joints' mid-range + 0.1 rad: the reward, the
+#: achieved and the desired goal, recorded on main before the pose task shared its machinery.
+REACH_BEFORE = {
+    (6, "project", "servo"): (
+        -1.3713794250566902,
+        [219.3179491968253, 154.81573318511795, 176.9512604891345, 164.56978656567222],
+        [197.6644955029288, 70.6792223710823, 209.76925852551594, 77.84559768497918],
+    ),
+    (6, "render", "kinematic"): (
+        -1.3720646896862259,
+        [219.3911756274717, 154.8159666335865, 176.96314309959732, 164.5811495154151],
+        [197.8190508795856, 70.71717119156052, 209.98541658452055, 78.01198439093855],
+    ),
+    (3, "foveated", "servo"): (
+        -1.3187652573936512,
+        [214.25797736433276, 147.23280793955294, 179.6688744353034, 156.36786895467338],
+        [197.65327545310083, 70.67656639241822, 209.76085153614304, 77.8411871926861],
+    ),
+}
+
+
+@pytest.mark.parametrize(("joints", "sensing", "control"), list(REACH_BEFORE))
+def test_puma_reach_is_bit_identical_to_before(joints, sensing, control):
+    env = gym.make("PumaReach-v0", joints=joints, sensing=sensing, control=control)
+    env.reset(seed=3)
+    u = env.unwrapped
+    obs, reward, *_ = env.step((u.joint_lower + u.joint_upper) / 2 + 0.1)
+    want_reward, want_achieved, want_desired = REACH_BEFORE[(joints, sensing, control)]
+    assert reward == want_reward
+    assert obs["achieved_goal"].tolist() == want_achieved
+    assert obs["desired_goal"].tolist() == want_desired
+    env.close()
+
+
+def test_reach_hides_the_pose_task_geoms():
+    env = gym.make("PumaReach-v0", joints=6).unwrapped
+    for name in ("gripper_palm", "hand_marker_blue", "hand_post"):
+        assert env.model.geom_group[env.model.geom(name).id] == 5
+    env.close()
+    env = GraspEnv(sensing="project")
+    for name in ("target", "marker_tcp", "marker_wrist"):
+        assert env.model.geom_group[env.model.geom(name).id] == 5
+    assert env.model.geom_group[env.model.geom("gripper_palm").id] == 2
+    env.close()
+
+
+# -- Stable-Baselines3 --------------------------------------------------------------------------
+
+
+@pytest.mark.skipif(
+    find_spec("stable_baselines3") is None or find_spec("torch") is None,
+    reason="the rl extra is not installed (pip install -e '.[rl]', or make test-rl)",
+)
+def test_sb3_check_env():
+    """SB3's checker (it calls compute_reward on batches) on what gym.make returns; in a child
+    that imports torch before anything renders, as tests/test_rl.py does."""
+    code = """
+        import torch, json, warnings
+        import gymnasium as gym
+        import envs
+        from stable_baselines3.common.env_checker import check_env
+        out = []
+        for kwargs in ({"sensing": "project", "control": "kinematic"},
+                       {"sensing": "project", "control": "kinematic", "normalize": True}):
+            env = gym.make("PumaGrasp-v0", **kwargs)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                check_env(env, warn=True, skip_render_check=True)
+            out.append(sorted({str(w.message)[:200] for w in caught}))
+        print(json.dumps(out))
+    """
+    done = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    plain, normalized = json.loads(done.stdout.strip().splitlines()[-1])
+    advice = ("symmetric and normalized", "we recommend using np.float32")
+    assert [m for m in plain if not any(a in m for a in advice)] == []
+    assert normalized == []
