@@ -173,7 +173,12 @@ def test_named_commands_exist(page: Path) -> None:
 
 def test_every_env_page_shows_its_gif() -> None:
     gifs = env_gifs()
-    assert {g.stem for g in gifs} == {"RiacsReach-v0", "PumaReach-v0", "PumaTrack-v0"}
+    assert {g.stem for g in gifs} == {
+        "RiacsReach-v0",
+        "PumaReach-v0",
+        "PumaGrasp-v0",
+        "PumaTrack-v0",
+    }
     for gif in gifs:
         page = ROOT / "docs" / "envs" / f"{gif.stem}.md"
         assert f"../assets/{gif.name}" in links(page), f"{page.name} does not show {gif.name}"
@@ -240,7 +245,9 @@ def documented_arguments(page: Path) -> dict[str, object]:
     return table
 
 
-@pytest.mark.parametrize("env_id", ["RiacsReach-v0", "PumaReach-v0", "PumaTrack-v0"])
+@pytest.mark.parametrize(
+    "env_id", ["RiacsReach-v0", "PumaReach-v0", "PumaGrasp-v0", "PumaTrack-v0"]
+)
 def test_env_pages_give_the_constructors_defaults(env_id: str) -> None:
     import gymnasium as gym
 

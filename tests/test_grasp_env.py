@@ -130,7 +130,7 @@ def test_reward_terms_are_the_ground_truth_in_project_mode():
     """With exact projection the triangulated fit is exact: the terms are minus the ground-truth
     distance, minus ORIENTATION_WEIGHT times the ground-truth angle, and the unseen penalty."""
     env = GraspEnv(sensing="project", control="kinematic")
-    for _, _, info, reward in _transitions(env, 4, seed=21):
+    for _, _, info, _ in _transitions(env, 4, seed=21):
         seen = info["visible_effector"].all()
         assert info["reward_unseen"] == (0.0 if seen else -ARM_REACH)
         if seen:
