@@ -35,23 +35,24 @@ def grasp_frames(
         return annotate(frame, lines)
 
     hold = max(1, round(HOLD_SECONDS * fps))
+    moving = {"title": "", "due": 0.0}  # the trial's title, the next frame's time (s)
+
+    def on_step(elapsed: float) -> None:
+        if elapsed >= moving["due"]:
+            frames.append(grab([moving["title"], "moving"]))
+            moving["due"] += 1.0 / fps
+
     for trial in range(trials):
         env.reset(seed=seed + trial)
         title = f"PumaGrasp-v0  exact pose IK  trial {trial + 1}/{trials}"
-        frames += [grab([title, "new object"])] * hold
-        due = [0.0]
-
-        def on_step(elapsed: float, title: str = title, due: list[float] = due) -> None:
-            if elapsed >= due[0]:
-                frames.append(grab([title, "moving"]))
-                due[0] += 1.0 / fps
-
+        frames.extend([grab([title, "new object"])] * hold)
+        moving.update(title=title, due=0.0)
         env.on_physics_step = on_step
         _, _, _, _, info = env.step(env.target_joints)
         env.on_physics_step = None
         error = (
             f"{1e3 * info['distance']:.1f} mm, {math.degrees(info['orientation_error']):.2f} deg"
         )
-        frames += [grab([title, f"grasped: {error}"])] * hold
+        frames.extend([grab([title, f"grasped: {error}"])] * hold)
     env.close()
     return frames
