@@ -10,6 +10,8 @@ reaching into an env's private attributes.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -62,10 +64,7 @@ class ArmScene(gym.Env):
         self.joint_lower = self.model.jnt_range[self._joint_ids, 0].copy()  # rad
         self.joint_upper = self.model.jnt_range[self._joint_ids, 1].copy()  # rad
         self._site = self.model.site(self.markers.site).id
-        for name in sorted(self.spec_robot.task_geoms - set(self.markers.geoms)):
-            geom = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)
-            if geom >= 0:  # the object's geoms are only in the pose task's scene
-                self.model.geom_group[geom] = HIDDEN_GROUP
+        hide_geoms(self.model, self.spec_robot.task_geoms - set(self.markers.geoms))
         self._effector_geoms = np.array([self.model.geom(g).id for g in self.markers.effector])
         self._target_geoms = np.array([self.model.geom(g).id for g in self.markers.target])
         self._target_mocap = int(
@@ -170,6 +169,15 @@ class ArmScene(gym.Env):
 
     def close(self) -> None:
         self.stereo.close()
+
+
+def hide_geoms(model: mujoco.MjModel, names: Iterable[str]) -> None:
+    """Move the named geoms into HIDDEN_GROUP, which no camera or viewer draws; names the
+    model does not have are skipped (the pose task's object is only in its own scene)."""
+    for name in sorted(names):
+        geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
+        if geom >= 0:
+            model.geom_group[geom] = HIDDEN_GROUP
 
 
 def as_slice(ids: np.ndarray) -> slice | np.ndarray:

@@ -209,6 +209,11 @@ def test_robot_file_is_the_robot_alone(name):
     assert scene.body("target").mocapid[0] >= 0
 
 
+def test_missing_scene_file_is_one_clear_error():
+    with pytest.raises(models.UnknownModelError, match=r"has no scene file 'scene_x\.xml'"):
+        models.load_model("puma560", scene_file="scene_x.xml")
+
+
 @pytest.mark.parametrize("call", [models.load_model, models.scene_path, models.robot_path])
 def test_unknown_model_lists_the_available_ones(call):
     with pytest.raises(models.UnknownModelError) as info:
@@ -222,10 +227,14 @@ def test_unknown_model_lists_the_available_ones(call):
 # --------------------------------------------------------------------------- stepping
 
 
-@pytest.mark.parametrize("name", models.available_models())
-def test_scene_steps_without_warnings(name):
+#: Every scene file of every robot (``scene.xml``, and the pose task's ``scene_grasp.xml``).
+SCENES = sorted((p.parent.name, p.name) for p in models.MODELS_DIR.glob("*/scene*.xml"))
+
+
+@pytest.mark.parametrize(("name", "scene_file"), SCENES)
+def test_scene_steps_without_warnings(name, scene_file):
     """Menagerie's model test: quasi-random controls within ctrlrange for 1 s, no warning."""
-    model = models.load_model(name)
+    model = models.load_model(name, scene_file=scene_file)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     lo, hi = model.actuator_ctrlrange.T

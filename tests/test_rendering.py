@@ -21,6 +21,8 @@ import numpy as np
 import pytest
 
 import models
+from envs.robots import ROBOTS
+from envs.scene import hide_geoms
 from envs.sensing.rendering import CameraRenderer
 from models import puma560, riacs
 
@@ -162,6 +164,9 @@ def visible_share(model, data, eye: np.ndarray, geom_id: int) -> float:
 @pytest.fixture(scope="module", params=["puma560", "riacs"])
 def scene(request):
     model = models.load_model(request.param)
+    grasp = ROBOTS[request.param].grasp
+    if grasp is not None:  # the pose task's gripper and markers, hidden as the reach envs do
+        hide_geoms(model, grasp.geoms)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_forward(model, data)
