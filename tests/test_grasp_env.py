@@ -197,6 +197,30 @@ def test_success_needs_position_and_orientation():
     env.close()
 
 
+def test_an_unseen_marker_keeps_its_last_sighting_the_others_move_on():
+    """The blue hand marker drawn in a group no camera draws: red and green are sensed where
+    they are (the exact projection, within render's error), blue keeps its previous goal, and
+    the hand counts as unseen."""
+    env = GraspEnv(sensing="render", control="kinematic")
+    exact = GraspEnv(sensing="project", control="kinematic")
+    env.reset(seed=6)
+    exact.reset(seed=6)
+    first, _, _, _, _ = env.step(env.target_joints)
+    env.model.geom_group[env.model.geom("hand_marker_blue").id] = 5
+    command = env.target_joints + 0.05
+    obs, reward, _, _, info = env.step(command)
+    truth, *_ = exact.step(command)
+    assert info["visible_effector"].tolist() == [False, False] and not info["visible"]
+    assert info["reward_unseen"] == -env.reach
+    np.testing.assert_array_equal(obs["achieved_goal"][8:], first["achieved_goal"][8:])
+    moved = np.abs(obs["achieved_goal"][:8] - first["achieved_goal"][:8]).max()
+    assert moved > 5.0  # px: red and green followed the hand
+    np.testing.assert_allclose(obs["achieved_goal"][:8], truth["achieved_goal"][:8], atol=1.5)
+    assert np.isnan(env.sensed_effector()[8:]).all()
+    env.close()
+    exact.close()
+
+
 def test_same_seed_same_episode():
     a, b = (GraspEnv(sensing="foveated", control="servo") for _ in range(2))
     for env in (a, b):
