@@ -211,7 +211,7 @@ def test_an_unseen_marker_keeps_its_last_sighting_the_others_move_on():
     obs, reward, _, _, info = env.step(command)
     truth, *_ = exact.step(command)
     assert info["visible_effector"].tolist() == [False, False] and not info["visible"]
-    assert info["reward_unseen"] == -env.reach
+    assert info["reward_unseen"] == -env.reach and reward <= -env.reach
     np.testing.assert_array_equal(obs["achieved_goal"][8:], first["achieved_goal"][8:])
     moved = np.abs(obs["achieved_goal"][:8] - first["achieved_goal"][:8]).max()
     assert moved > 5.0  # px: red and green followed the hand
