@@ -22,15 +22,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from learners.base import Controller, check_pixels
+from learners.base import Controller
+from learners.pose_pixels import check_pose_pixels
 from models.puma560.grasp import READY, pose_from_points
 from models.puma560.inverse import pose_ik_all
 from models.puma560.kinematics import DH, frames, jacobian
 from models.rotations import orientation_error
 
 Triangulate = Callable[[np.ndarray], np.ndarray]  # (N, 4) pixels -> (N, 3) world points, m
-#: Pixels of a pose: three markers × (u_left, v_left, u_right, v_right).
-PIXELS = 12
 DAMPING = 1e-3  #: λ of the damped least squares (m, rad)
 TOLERANCE = 1e-10  #: |(Δp, Δφ)| (m, rad) at which the iteration stops
 MAX_ITERATIONS = 200  #: per query
@@ -77,10 +76,10 @@ class _PoseFloor(Controller):
     def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
         """Joints (6,) that put the hand on the object seen at u (12,); given the hand seen at
         v (12,) after the previous command, re-aimed by the sensed hand-to-object transform."""
-        u = check_pixels("u", u, PIXELS)
+        u = check_pose_pixels("u", u)
         goal = self.sensed_pose(u)
         if v is not None:
-            v = check_pixels("v", v, PIXELS)
+            v = check_pose_pixels("v", v)
             if self._goal is None:
                 raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
             hand = self.sensed_pose(v)

@@ -42,23 +42,21 @@ moves would never try.
 
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from learners.base import Array, Learner, check_pixels
+from learners.base import Array, Learner
 from learners.guards import InputBox, check_finite
 from learners.persistence import CheckpointError, load_npz, save_npz
+from learners.pose_pixels import PIXELS, check_pose_pixels
 from learners.som.hierarchical_config import HierarchicalConfig
 from learners.som.lattice import Lattice
 
 KIND = "HierarchicalSOM"
 FORMAT_VERSION = 1
-#: Pixels of a pose: three markers × (u_left, v_left, u_right, v_right).
-PIXELS = 12
 #: Feature rows: f = F u, p = marker 1, o = markers 2 and 3 minus marker 1.
 FEATURES = np.block(
     [
@@ -69,6 +67,11 @@ FEATURES = np.block(
 )  # (12, 12)
 #: The w_rs start within this fraction of the image size around zero offset.
 ORIENTATION_START = 0.25
+#: Weight of the newest trial in the running mean C of Δf Δfᵀ that whitens the Widrow-Hoff step.
+WHITEN_RATE = 0.01
+#: C is regularised by this fraction of its mean eigenvalue (trace / 12) before it is inverted:
+#: Δf spans only the 6 directions the joints move the markers in, so C alone is singular.
+WHITEN_FLOOR = 1e-3
 _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
@@ -120,12 +123,13 @@ class HierarchicalSOM(Learner):
         self._orientations = Lattice(c.orientation_lattice)
         gain = np.concatenate([np.ones(4), np.full(8, c.orientation_gain)])
         self._features_t = (gain[:, None] * FEATURES).T  # (12, 12), f = u @ this
-        P, O, J = c.n_positions, c.n_orientations, self.n_joints
+        P, Q, J = c.n_positions, c.n_orientations, self.n_joints
         self.w_pos = self.rng.uniform(0.0, image, size=(P, 4))  # (P, 4)
         reach = ORIENTATION_START * c.orientation_gain * np.tile(image, 2)
-        self.w_ori = self.rng.uniform(-reach, reach, size=(P, O, 8))  # (P, O, 8)
-        self.theta = np.tile(start, (P, O, 1))  # (P, O, J)
-        self.A = np.zeros((P, O, J, PIXELS))  # (P, O, J, 12)
+        self.w_ori = self.rng.uniform(-reach, reach, size=(P, Q, 8))  # (P, Q, 8)
+        self.theta = np.tile(start, (P, Q, 1))  # (P, Q, J)
+        self.A = np.zeros((P, Q, J, PIXELS))  # (P, Q, J, 12)
+        self.df_cov = np.eye(PIXELS)  # (12, 12) running mean of Δf Δfᵀ, px²
         self.t = 0
         self.skipped = {"not_visible": 0, "small_dv": 0}
         self.reset()
@@ -178,7 +182,7 @@ class HierarchicalSOM(Learner):
             self._abar += np.outer(dtheta - self._abar @ df, df) / df2
 
     def _pixels(self, name: str, x: np.ndarray) -> np.ndarray:
-        a = check_pixels(name, x, PIXELS)
+        a = check_pose_pixels(name, x)
         self._pixel_box.check(name, a)
         return a
 
@@ -259,7 +263,10 @@ class HierarchicalSOM(Learner):
         r, s = (int(i[0]) for i in self.winners(f[None]))
         a = self.A[r, s]  # (J, 12)
         theta_star = self.theta[r, s] + a @ (f - f0)
-        a_star = a + np.outer(theta1 - theta0 - a @ df, df) / df2
+        self.df_cov += WHITEN_RATE * (np.outer(df, df) - self.df_cov)
+        floor = WHITEN_FLOOR * np.trace(self.df_cov) / PIXELS
+        g = np.linalg.solve(self.df_cov + floor * np.eye(PIXELS), df)  # (12,) C⁻¹ Δf
+        a_star = a + np.outer(theta1 - theta0 - a @ df, g) / (g @ df)
         eps, sigma, eps_out, sigma_out, _ = self.params()
         box, h = self._positions.neighbours(r, sigma)
         view = self._positions.view(self.w_pos, box)
@@ -287,12 +294,10 @@ class HierarchicalSOM(Learner):
     def save(self, path: str | os.PathLike) -> Path:
         """Write the map (options, arrays, t, skip counts, generator state) atomically."""
         config = self.config.to_dict()
-        config.update(
-            t=self.t, skipped=dict(self.skipped), rng_state=self.rng.bit_generator.state
-        )
+        config.update(t=self.t, skipped=dict(self.skipped), rng_state=self.rng.bit_generator.state)
         arrays = {
             "w_pos": self.w_pos, "w_ori": self.w_ori, "theta": self.theta, "A": self.A,
-            "joint_lower": self.lower, "joint_upper": self.upper,
+            "df_cov": self.df_cov, "joint_lower": self.lower, "joint_upper": self.upper,
         }  # fmt: skip
         return save_npz(path, KIND, FORMAT_VERSION, config, arrays)
 
@@ -319,20 +324,22 @@ class HierarchicalSOM(Learner):
             bit_generator = getattr(np.random, state["bit_generator"])()
             bit_generator.state = state
             lower, upper = arrays["joint_lower"], arrays["joint_upper"]
-            P, O, J = config.n_positions, config.n_orientations, len(lower)
+            P, Q, J = config.n_positions, config.n_orientations, len(lower)
             shapes = {
-                "w_pos": (P, 4), "w_ori": (P, O, 8), "theta": (P, O, J), "A": (P, O, J, PIXELS),
-                "joint_lower": (J,), "joint_upper": (J,),
+                "w_pos": (P, 4), "w_ori": (P, Q, 8), "theta": (P, Q, J), "A": (P, Q, J, PIXELS),
+                "df_cov": (PIXELS, PIXELS), "joint_lower": (J,), "joint_upper": (J,),
             }  # fmt: skip
             for name, shape in shapes.items():
                 stored = arrays[name]
                 if stored.shape != shape or stored.dtype != np.float64:
-                    raise ValueError(f"array {name!r} is {stored.dtype} {stored.shape}, not {shape}")
+                    raise ValueError(
+                        f"array {name!r} is {stored.dtype} {stored.shape}, not {shape}"
+                    )
                 check_finite(**{name: stored})
             som = cls(lower, upper, np.clip(arrays["theta"][0, 0], lower, upper), config, rng=0)
             if not np.all((lower <= arrays["theta"]) & (arrays["theta"] <= upper)):
                 raise ValueError("theta lies outside the stored joint ranges")
-            for name in ("w_pos", "w_ori", "theta", "A"):
+            for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
                 setattr(som, name, arrays[name].copy())
             som.t, som.skipped = t, dict(skipped)
             som.rng = np.random.Generator(bit_generator)

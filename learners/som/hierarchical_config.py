@@ -44,7 +44,9 @@ DEFAULT_ORIENTATION_GAIN = 4.0
 def _number(name: str, value: Any, kind: type) -> Any:
     """``value`` as ``kind`` (int or float), else ValueError naming the option."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ValueError(f"HierarchicalConfig.{name} must be a finite {kind.__name__}, got {value!r}")
+        raise ValueError(
+            f"HierarchicalConfig.{name} must be a finite {kind.__name__}, got {value!r}"
+        )
     if kind is int and value != int(value):
         raise ValueError(f"HierarchicalConfig.{name} must be an integer, got {value!r}")
     return kind(value)
@@ -57,7 +59,8 @@ def _shape(name: str, value: Any) -> tuple[int, ...]:
         shape = ()
     if not shape or min(shape) < 1 or len(shape) > 3:
         raise ValueError(
-            f"HierarchicalConfig.{name} must be 1 to 3 positive sizes, e.g. (6, 6, 4); got {value!r}"
+            f"HierarchicalConfig.{name} must be 1 to 3 positive sizes, e.g. (6, 6, 4), "
+            f"got {value!r}"
         )
     return shape
 
@@ -126,7 +129,9 @@ class HierarchicalConfig:
                 f"HierarchicalConfig.orientation_gain must be > 0, got {self.orientation_gain}"
             )
         if not isinstance(self.refine, bool):
-            raise ValueError(f"HierarchicalConfig.refine must be True or False, got {self.refine!r}")
+            raise ValueError(
+                f"HierarchicalConfig.refine must be True or False, got {self.refine!r}"
+            )
         for name in SCHEDULES:
             put(name, self._schedule(name, getattr(self, name)))
         for name in ("eps", "eps_out"):
@@ -194,7 +199,7 @@ class HierarchicalConfig:
         options: dict[str, Any] = {}
         for key, kind in types.items():
             value = entries.get(key)
-            if not isinstance(value, kind) or isinstance(value, bool):
+            if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
                 raise ValueError(f"config entry {key!r} is {value!r}, not of type {kind}")
             options[key] = value
         schedules = options.pop("schedules")
