@@ -94,19 +94,25 @@ def test_refined_fine_move_takes_the_broyden_step(oracle):
     np.testing.assert_allclose(som.act(u, v1), theta1 + refined @ som.features(u - v1), atol=1e-12)
 
 
-def test_learning_step_with_full_rates(oracle):
-    """ε = ε' = 1 on one leaf: w jumps to the target's features, θ to θ_rs + A(f(u) − f(v0)),
-    and the new A reproduces the trial's move exactly: A* Δf = Δθ (Widrow-Hoff)."""
-    som = _one_leaf(oracle, eps=1.0, eps_out=1.0)
+@pytest.mark.parametrize("transport", [False, True])
+def test_learning_step_with_full_rates(oracle, transport):
+    """ε = ε' = 1 on one leaf: w jumps to the target's features f(u); the new A reproduces the
+    trial's move exactly, A* Δf = Δθ (Widrow-Hoff); θ becomes MRS's θ* = θ_rs + A(f(u) − f(v0)),
+    and with ``transport`` θ* moved along A* from the old centre c to the new one, f(u)."""
+    som = _one_leaf(oracle, eps=1.0, eps_out=1.0, transport=transport)
     A = som.A[0, 0].copy()
+    centre = np.concatenate([som.w_pos[0], som.w_ori[0, 0]])
     u, v0, v1 = (oracle.hand_pixels(READY + d) for d in (0.05, -0.02, 0.01))
     theta0, theta1 = READY + 0.01, READY + np.array([0.02, -0.01, 0.03, 0.05, -0.04, 0.02])
     assert som.learn(u, theta0, v0, theta1, v1)
     f = som.features(u)
     np.testing.assert_allclose(np.concatenate([som.w_pos[0], som.w_ori[0, 0]]), f, rtol=1e-15)
-    np.testing.assert_allclose(som.theta[0, 0], READY + A @ (f - som.features(v0)), atol=1e-14)
     df = som.features(v1 - v0)
     np.testing.assert_allclose(som.A[0, 0] @ df, theta1 - theta0, atol=1e-12)
+    theta_star = READY + A @ (f - som.features(v0))
+    if transport:
+        theta_star += som.A[0, 0] @ (f - centre)
+    np.testing.assert_allclose(som.theta[0, 0], theta_star, atol=1e-13)
     assert som.t == 1
 
 

@@ -261,6 +261,7 @@ class HierarchicalSOM(Learner):
             self.skipped["small_dv"] += 1
             return False
         r, s = (int(i[0]) for i in self.winners(f[None]))
+        centre = self.centre(np.array([r]), np.array([s]))[0]  # (12,) before the update
         a = self.A[r, s]  # (J, 12)
         theta_star = self.theta[r, s] + a @ (f - f0)
         self.df_cov += WHITEN_RATE * (np.outer(df, df) - self.df_cov)
@@ -271,24 +272,40 @@ class HierarchicalSOM(Learner):
         box, h = self._positions.neighbours(r, sigma)
         view = self._positions.view(self.w_pos, box)
         view += (eps * h)[..., None] * (f[:4] - view)
-        self._nested(self.w_ori, r, s, sigma, eps, f[4:])
-        self._nested(self.theta, r, s, sigma_out, eps_out, theta_star)
-        self._nested(self.A, r, s, sigma_out, eps_out, a_star)
+        view, h = self._box(self.w_ori, r, s, sigma)
+        view += (eps * h)[..., None] * (f[4:] - view)
+        view, h = self._box(self.theta, r, s, sigma_out)
+        if self.config.transport:  # θ* moved to every leaf's own (new) centre along A*
+            box_p = self._boxes(r, s, sigma_out)[0]
+            w_pos = self._positions.view(self.w_pos, box_p)  # (*box_p, 4)
+            w_ori = self._box(self.w_ori, r, s, sigma_out)[0]  # (*box_p, *box_o, 8)
+            w_pos = w_pos.reshape(w_pos.shape[:-1] + (1,) * (w_ori.ndim - w_pos.ndim) + (4,))
+            shift = (
+                np.concatenate([np.broadcast_to(w_pos, (*w_ori.shape[:-1], 4)), w_ori], axis=-1)
+                - centre
+            )  # (*box_p, *box_o, 12)
+            theta_star = theta_star + shift @ a_star.T  # (*box_p, *box_o, J)
+        view += (eps_out * h)[..., None] * (theta_star - view)
+        view, h = self._box(self.A, r, s, sigma_out)
+        view += (eps_out * h)[..., None, None] * (a_star - view)
         np.clip(self.theta, self.lower, self.upper, out=self.theta)
         self.t += 1
         return True
 
-    def _nested(
-        self, array: np.ndarray, r: int, s: int, sigma: float, rate: float, target: np.ndarray
-    ) -> None:
-        """array[r', s'] += rate h_rr' h_ss' (target − array[r', s']) over both neighbourhoods,
-        in place; ``array`` is (P, O, ...)."""
+    def _boxes(self, r: int, s: int, sigma: float) -> tuple[tuple[slice, ...], tuple[slice, ...]]:
+        """The neighbourhood boxes of width σ around r (position) and s (orientation)."""
+        return self._positions.neighbours(r, sigma)[0], self._orientations.neighbours(s, sigma)[0]
+
+    def _box(
+        self, array: np.ndarray, r: int, s: int, sigma: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The leaves of (P, O, ...) ``array`` in both neighbourhoods of width σ around leaf
+        (r, s) as a writable view (*box_p, *box_o, ...), and their weights h_rr' h_ss'
+        (*box_p, *box_o)."""
         box_p, h_p = self._positions.neighbours(r, sigma)
         box_o, h_o = self._orientations.neighbours(s, sigma)
         shape = (*self._positions.shape, *self._orientations.shape, *array.shape[2:])
-        view = array.reshape(shape)[(*box_p, *box_o)]
-        h = np.multiply.outer(h_p, h_o) * rate  # (*box_p, *box_o)
-        view += h.reshape(h.shape + (1,) * (array.ndim - 2)) * (target - view)
+        return array.reshape(shape)[(*box_p, *box_o)], np.multiply.outer(h_p, h_o)
 
     # ----------------------------------------------------------------------------- saving
     def save(self, path: str | os.PathLike) -> Path:

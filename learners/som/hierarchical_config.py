@@ -25,9 +25,9 @@ MAX_LEAVES = 1_000_000
 # Schedules x_i -> x_f over t_max trials (σ in lattice units of each lattice); docs/decisions.md,
 # "The hierarchical map", says where the values come from.
 DEFAULT_EPS = Schedule(1.0, 0.01)
-DEFAULT_SIGMA = Schedule(2.0, 0.3)
+DEFAULT_SIGMA = Schedule(2.0, 0.6)
 DEFAULT_EPS_OUT = Schedule(0.9, 0.1)
-DEFAULT_SIGMA_OUT = Schedule(2.0, 0.3)
+DEFAULT_SIGMA_OUT = Schedule(2.0, 0.6)
 #: Exploration std of training fine moves, rad.
 DEFAULT_EXPLORE = Schedule(0.05, 0.005)
 DEFAULT_T_MAX = 10_000
@@ -84,12 +84,13 @@ class HierarchicalConfig:
         min_dv: trials whose sensed change |Δf| (px) is below this are skipped.
         orientation_gain: weight of the orientation features against the position features.
         refine: correct the fine moves' map between the fine moves of one target (Broyden).
+        transport: every leaf learns the winner's θ* moved to its own centre along A*.
     Raises:
         ValueError: one line naming the option and what it must be.
     """
 
-    position_lattice: tuple[int, ...] = (6, 6, 4)
-    orientation_lattice: tuple[int, ...] = (3, 3, 3)
+    position_lattice: tuple[int, ...] = (8, 8, 6)
+    orientation_lattice: tuple[int, ...] = (2, 2, 2)
     image_size: tuple[int, int] = (320, 240)
     t_max: int = DEFAULT_T_MAX
     eps: Schedule = DEFAULT_EPS
@@ -100,6 +101,7 @@ class HierarchicalConfig:
     min_dv: float = DEFAULT_MIN_DV
     orientation_gain: float = DEFAULT_ORIENTATION_GAIN
     refine: bool = True
+    transport: bool = True
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -185,6 +187,7 @@ class HierarchicalConfig:
             "min_dv": self.min_dv,
             "orientation_gain": self.orientation_gain,
             "refine": self.refine,
+            "transport": self.transport,
         }
 
     @classmethod
@@ -194,7 +197,7 @@ class HierarchicalConfig:
         types: dict[str, type | tuple[type, ...]] = {
             "position_lattice": list, "orientation_lattice": list, "image_size": list,
             "t_max": int, "schedules": dict, "min_dv": (int, float),
-            "orientation_gain": (int, float), "refine": bool,
+            "orientation_gain": (int, float), "refine": bool, "transport": bool,
         }  # fmt: skip
         options: dict[str, Any] = {}
         for key, kind in types.items():
