@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from envs.studies.grasp_learning import train
 from envs.studies.grasp_oracle import PoseOracle
 from learners.persistence import CheckpointError
 from learners.som.hierarchical import HierarchicalSOM
@@ -28,13 +29,7 @@ def _map(seed: int = 0, **options) -> HierarchicalSOM:
 
 
 def _train(som: HierarchicalSOM, oracle: PoseOracle, trials: int, seed: int = 1) -> None:
-    poses, _ = oracle.targets(np.random.default_rng(seed), trials)
-    for u in oracle.pixels(poses):
-        som.reset()
-        theta0 = som.act(u)
-        v0 = oracle.hand_pixels(theta0)
-        theta1 = som.act(u, v0, explore=True)
-        som.learn(u, theta0, v0, theta1, oracle.hand_pixels(theta1))
+    train(som, oracle, trials, np.random.default_rng(seed))
 
 
 def _errors(som, oracle, poses, fine_moves=3):

@@ -7,32 +7,46 @@ Kohonen's rule and the output learning of the visuomotor map from the robot's ow
 Here the object is a frame of three markers whose pose the cameras see in 12 pixels
 u = (marker 1, marker 2, marker 3), each (u_left, v_left, u_right, v_right).
 
-Features. f(u) = (p, o): p = marker 1's four pixels (the object's position), o = the eight
-pixel offsets of markers 2 and 3 from marker 1 (its orientation, scaled by its depth). f is an
-invertible linear map of u, so a local linear map on f is one on u.
+Features. f(u) = (p, g·o): p = marker 1's four pixels (the object's position), o = the eight
+pixel offsets of markers 2 and 3 from marker 1 (its orientation, scaled by its depth), g =
+``orientation_gain``. f is an invertible linear map of u, so a local linear map on f is one on
+u. The gain evens out how strongly the joints show in f (the markers sit closer together than
+the hand travels, so turning the wrist moves o less than moving the arm moves p).
 
 Lattices. Position nodes r of ``position_lattice`` hold w_r (4,); at every r a nested lattice
-of ``orientation_lattice`` holds w_rs (8,) over o. A leaf (r, s) holds θ_rs (J,) and a local
+of ``orientation_lattice`` holds w_rs (8,) over g·o. A leaf (r, s) holds θ_rs (J,) and a local
 linear map A_rs (J, 12) ≈ ∂θ/∂f. Departure from the paper: the object here turns about three
 axes (a cylinder's symmetry left two), so the nested lattice is 3-D by default; any shape of
 1-3 axes may be chosen.
 
 Moving (``act``):
-    winners   r = argmin |p − w_r|,  s = argmin_s |o − w_rs|,  c_rs = (w_r, w_rs)
+    winners   r = argmin |p − w_r|,  s = argmin_s |g·o − w_rs|,  c_rs = (w_r, w_rs)
     coarse    θ0 = θ_rs + A_rs (f(u) − c_rs)
-    fine      θ_{k+1} = θ_k + A_rs (f(u) − f(v_k)),  v_k sensed after θ_k (MRS's fine move);
+    fine      θ_{k+1} = θ_k + Ā (f(u) − f(v_k)),  v_k sensed after θ_k (MRS's fine move);
               the hand's markers coincide with the object's when it grasps, so f(u) − f(v) → 0
-              exactly at the goal pose.
+              exactly at the goal pose. Ā starts as A_rs; ``refine=True`` (not in the papers,
+              as the map's option of that name) lets it take the Broyden step of the previous
+              fine move, Ā += (Δθ − ĀΔf) Δf^T / |Δf|², from the second fine move on.
 
 Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δf = f(v1) − f(v0):
     w_r'     += ε h_rr' (p − w_r')                                   (Kohonen, position lattice)
-    w_r's'   += ε h_rr' h_ss' (o − w_r's')        (nested lattices; the same s' at every r')
-    θ* = θ_rs + A_rs (f(u) − f(v0)),  A* = A_rs + (Δθ − A_rs Δf) Δf^T / |Δf|²  (MRS, Widrow-Hoff)
-    θ_r's'   += ε' h'_rr' h'_ss' (θ* − θ_r's'),  A_r's' likewise towards A*
+    w_r's'   += ε h_rr' h_ss' (g·o − w_r's')      (nested lattices; the same s' at every r')
+    θ* = θ_rs + A_rs (f(u) − f(v0))                                                    (MRS)
+    A* = A_rs + (Δθ − A_rs Δf) (C⁻¹Δf)^T / (Δf^T C⁻¹ Δf)            (Widrow-Hoff, whitened)
+    θ_r's'   += ε' h'_rr' h'_ss' (θ*_r's' − θ_r's'),  A_r's' likewise towards A*
 with Gaussian neighbourhoods h = exp(−d²/2σ²) in each lattice's own units (σ for w, σ' for the
 outputs), the product coupling leaves of neighbouring position nodes that sit at the same place
-of their nested lattices. θ are clipped into the joint ranges.
-
+of their nested lattices. θ are clipped into the joint ranges. Two departures from MRS, both
+for the six joints' sake:
+    whitening   C is the running mean of Δf Δf^T over the trials (``df_cov``, regularised):
+                the plain step (C = I) learns a direction at a speed ∝ how far the markers
+                move along it, so the wrist's directions, which move them least, lagged. Like
+                the plain step it makes A* Δf = Δθ exactly.
+    transport   ``transport=True``: θ*_r's' = θ* + A* (c_r's' − c_rs), the winner's estimate
+                moved along A* from the winner's centre (before the update) to each leaf's own
+                centre (after it). MRS give every neighbour θ* itself, which pulls θ_r's' towards
+                the joints of another place and leaves θ_rs off its own centre until σ' is
+                small; ``transport=False`` is MRS's rule.
 What the map starts from: the joint ranges, one taught pose (every θ_rs starts there), the image
 size (w_r start uniformly in the image, w_rs uniformly within a quarter image of zero) and
 A = 0. A starts learning from the exploration noise of training fine moves (``explore=True``

@@ -23,7 +23,7 @@ SCHEDULES = ("eps", "sigma", "eps_out", "sigma_out", "explore")
 MAX_LEAVES = 1_000_000
 
 # Schedules x_i -> x_f over t_max trials (σ in lattice units of each lattice); docs/decisions.md,
-# "The hierarchical map", says where the values come from.
+# "The map" (the hierarchical map), says where they come from.
 DEFAULT_EPS = Schedule(1.0, 0.01)
 DEFAULT_SIGMA = Schedule(2.0, 0.6)
 DEFAULT_EPS_OUT = Schedule(0.9, 0.1)
