@@ -1,0 +1,382 @@
+"""The hierarchical visuomotor map: the hand's position and orientation learned from the cameras.
+
+Martinetz & Schulten (IJCNN 1990, "Hierarchical neural net for learning control of a robot's arm
+and gripper"; Ritter, Martinetz & Schulten 1992) nest a 2-D square lattice for the gripper's
+orientation at every node of a 3-D cubic lattice for the object's position, and learn both with
+Kohonen's rule and the output learning of the visuomotor map from the robot's own trial moves.
+Here the object is a frame of three markers whose pose the cameras see in 12 pixels
+u = (marker 1, marker 2, marker 3), each (u_left, v_left, u_right, v_right).
+
+Features. f(u) = (p, g·o): p = marker 1's four pixels (the object's position), o = the eight
+pixel offsets of markers 2 and 3 from marker 1 (its orientation, scaled by its depth), g =
+``orientation_gain``. f is an invertible linear map of u, so a local linear map on f is one on
+u. The gain evens out how strongly the joints show in f (the markers sit closer together than
+the hand travels, so turning the wrist moves o less than moving the arm moves p).
+
+Lattices. Position nodes r of ``position_lattice`` hold w_r (4,); at every r a nested lattice
+of ``orientation_lattice`` holds w_rs (8,) over g·o. A leaf (r, s) holds θ_rs (J,) and a local
+linear map A_rs (J, 12) ≈ ∂θ/∂f. Departure from the paper: the object here turns about three
+axes (a cylinder's symmetry left two), so the nested lattice is 3-D by default; any shape of
+1-3 axes may be chosen.
+
+Moving (``act``):
+    winners   r = argmin |p − w_r|,  s = argmin_s |g·o − w_rs|,  c_rs = (w_r, w_rs)
+    coarse    θ0 = θ_rs + A_rs (f(u) − c_rs)
+    fine      θ_{k+1} = θ_k + Ā (f(u) − f(v_k)),  v_k sensed after θ_k (MRS's fine move);
+              the hand's markers coincide with the object's when it grasps, so f(u) − f(v) → 0
+              exactly at the goal pose. Ā starts as A_rs; ``refine=True`` (not in the papers,
+              as the map's option of that name) lets it take the Broyden step of the previous
+              fine move, Ā += (Δθ − ĀΔf) Δf^T / |Δf|², from the second fine move on.
+
+Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δf = f(v1) − f(v0):
+    w_r'     += ε h_rr' (p − w_r')                                   (Kohonen, position lattice)
+    w_r's'   += ε h_rr' h_ss' (g·o − w_r's')      (nested lattices; the same s' at every r')
+    θ* = θ_rs + A_rs (f(u) − f(v0))                                                    (MRS)
+    A* = A_rs + (Δθ − A_rs Δf) (C⁻¹Δf)^T / (Δf^T C⁻¹ Δf)            (Widrow-Hoff, whitened)
+    θ_r's'   += ε' h'_rr' h'_ss' (θ*_r's' − θ_r's'),  A_r's' likewise towards A*
+with Gaussian neighbourhoods h = exp(−d²/2σ²) in each lattice's own units (σ for w, σ' for the
+outputs), the product coupling leaves of neighbouring position nodes that sit at the same place
+of their nested lattices. θ are clipped into the joint ranges. Two departures from MRS, both
+for the six joints' sake:
+    whitening   C is the running mean of Δf Δf^T over the trials (``df_cov``, regularised):
+                the plain step (C = I) learns a direction at a speed ∝ how far the markers
+                move along it, so the wrist's directions, which move them least, lagged. Like
+                the plain step it makes A* Δf = Δθ exactly.
+    transport   ``transport=True``: θ*_r's' = θ* + A* (c_r's' − c_rs), the winner's estimate
+                moved along A* from the winner's centre (before the update) to each leaf's own
+                centre (after it). MRS give every neighbour θ* itself, which pulls θ_r's' towards
+                the joints of another place and leaves θ_rs off its own centre until σ' is
+                small; ``transport=False`` is MRS's rule.
+What the map starts from: the joint ranges, one taught pose (every θ_rs starts there), the image
+size (w_r start uniformly in the image, w_rs uniformly within a quarter image of zero) and
+A = 0. A starts learning from the exploration noise of training fine moves (``explore=True``
+adds N(0, explore(t)²) rad to every joint), which also excites the directions the map's own
+moves would never try.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from learners.base import Array, Learner
+from learners.guards import InputBox, check_finite
+from learners.persistence import CheckpointError, load_npz, save_npz
+from learners.pose_pixels import PIXELS, check_pose_pixels
+from learners.som.hierarchical_config import HierarchicalConfig
+from learners.som.lattice import Lattice
+
+KIND = "HierarchicalSOM"
+FORMAT_VERSION = 1
+#: Feature rows: f = F u, p = marker 1, o = markers 2 and 3 minus marker 1.
+FEATURES = np.block(
+    [
+        [np.eye(4), np.zeros((4, 8))],
+        [-np.eye(4), np.eye(4), np.zeros((4, 4))],
+        [-np.eye(4), np.zeros((4, 4)), np.eye(4)],
+    ]
+)  # (12, 12)
+#: The w_rs start within this fraction of the image size around zero offset.
+ORIENTATION_START = 0.25
+#: Weight of the newest trial in the running mean C of Δf Δfᵀ that whitens the Widrow-Hoff step.
+WHITEN_RATE = 0.01
+#: C is regularised by this fraction of its mean eigenvalue (trace / 12) before it is inverted:
+#: Δf spans only the 6 directions the joints move the markers in, so C alone is singular.
+WHITEN_FLOOR = 1e-3
+_BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
+
+
+class HierarchicalSOM(Learner):
+    """Position lattice with an orientation lattice nested at every node (module docstring).
+
+    Args:
+        joint_lower, joint_upper: joint ranges (J,), rad; every command is clipped into them.
+        theta_init: (J,) the taught pose every θ_rs starts at, rad.
+        config: the options (:class:`~learners.som.hierarchical_config.HierarchicalConfig`);
+            ``options`` change single fields of it by name.
+        rng: a numpy Generator or a seed; the map's only source of randomness.
+    Raises:
+        ValueError: one line naming a wrong option, range or start pose.
+    """
+
+    def __init__(
+        self,
+        joint_lower: np.ndarray,
+        joint_upper: np.ndarray,
+        theta_init: np.ndarray,
+        config: HierarchicalConfig | None = None,
+        rng: np.random.Generator | int | None = None,
+        **options: Any,
+    ) -> None:
+        self.config = HierarchicalConfig.of(config, **options)
+        self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
+        self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
+        check_finite(joint_lower=self.lower, joint_upper=self.upper)
+        if self.lower.shape != self.upper.shape or not np.all(self.lower < self.upper):
+            raise ValueError(
+                f"joint_lower {self.lower} and joint_upper {self.upper} need one entry per joint "
+                "with lower < upper"
+            )
+        start = np.array(theta_init, dtype=float).ravel()
+        check_finite(theta_init=start)
+        if start.shape != self.lower.shape or not np.all(
+            (self.lower <= start) & (start <= self.upper)
+        ):
+            raise ValueError(
+                f"theta_init {start} must have one angle per joint, inside the joint ranges"
+            )
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        c = self.config
+        width, height = c.image_size
+        image = np.array([width, height, width, height], dtype=float)
+        self._pixel_box = InputBox(np.zeros(PIXELS), np.tile(image, 3), "image")
+        self._positions = Lattice(c.position_lattice)
+        self._orientations = Lattice(c.orientation_lattice)
+        gain = np.concatenate([np.ones(4), np.full(8, c.orientation_gain)])
+        self._features_t = (gain[:, None] * FEATURES).T  # (12, 12), f = u @ this
+        P, Q, J = c.n_positions, c.n_orientations, self.n_joints
+        self.w_pos = self.rng.uniform(0.0, image, size=(P, 4))  # (P, 4)
+        reach = ORIENTATION_START * c.orientation_gain * np.tile(image, 2)
+        self.w_ori = self.rng.uniform(-reach, reach, size=(P, Q, 8))  # (P, Q, 8)
+        self.theta = np.tile(start, (P, Q, 1))  # (P, Q, J)
+        self.A = np.zeros((P, Q, J, PIXELS))  # (P, Q, J, 12)
+        self.df_cov = np.eye(PIXELS)  # (12, 12) running mean of Δf Δfᵀ, px²
+        self.t = 0
+        self.skipped = {"not_visible": 0, "small_dv": 0}
+        self.reset()
+
+    # ----------------------------------------------------------------------------- structure
+    @property
+    def n_joints(self) -> int:
+        return self.lower.shape[0]
+
+    @property
+    def n_leaves(self) -> int:
+        return self.config.n_positions * self.config.n_orientations
+
+    def params(self) -> tuple[float, float, float, float, float]:
+        """ε, σ, ε', σ' and the exploration std at t = trials learned so far."""
+        c = self.config
+        frac = min(self.t, c.t_max) / c.t_max
+        return tuple(s.at(frac) for s in (c.eps, c.sigma, c.eps_out, c.sigma_out, c.explore))
+
+    def features(self, u: np.ndarray) -> np.ndarray:
+        """f(u) (..., 12): marker 1's pixels, then ``orientation_gain`` times markers 2 and 3
+        minus marker 1."""
+        return np.asarray(u, dtype=float) @ self._features_t
+
+    def winners(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Position and orientation winners (M,), (M,) of features f (M, 12)."""
+        p, o = f[:, :4], f[:, 4:]
+        d_pos = (self.w_pos**2).sum(-1) - 2.0 * p @ self.w_pos.T  # (M, P)
+        r = d_pos.argmin(axis=1)
+        w = self.w_ori[r]  # (M, O, 8)
+        d_ori = (w**2).sum(-1) - 2.0 * np.einsum("mod,md->mo", w, o)  # (M, O)
+        return r, d_ori.argmin(axis=1)
+
+    def centre(self, r: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The leaves' centres c_rs (M, 12) in feature space."""
+        return np.concatenate([self.w_pos[r], self.w_ori[r, s]], axis=-1)
+
+    # ----------------------------------------------------------------------------- acting
+    def reset(self) -> None:
+        """Forget the previous command; the next ``act`` must be a coarse one."""
+        self._abar: np.ndarray | None = None  # (J, 12) the fine moves' map, refined by them
+        self._cmd: np.ndarray | None = None  # last command
+        self._fv: np.ndarray | None = None  # features sensed before the last fine command
+        self._cmd_before: np.ndarray | None = None  # command before the last fine one
+
+    def _broyden(self, dtheta: np.ndarray, df: np.ndarray) -> None:
+        """Ā += (Δθ − Ā Δf) Δf^T / |Δf|² from the last two commands and what they gave."""
+        df2 = float(df @ df)
+        if self.config.refine and df2 >= self.config.min_dv**2:
+            self._abar += np.outer(dtheta - self._abar @ df, df) / df2
+
+    def _pixels(self, name: str, x: np.ndarray) -> np.ndarray:
+        a = check_pose_pixels(name, x)
+        self._pixel_box.check(name, a)
+        return a
+
+    def _clip(self, theta: np.ndarray) -> np.ndarray:
+        return np.minimum(np.maximum(theta, self.lower), self.upper)
+
+    def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
+        """Coarse command for target pixels u (12,), or, given the hand's pixels v (12,) sensed
+        after the previous command, the fine command θ + A_rs (f(u) − f(v)).
+
+        Args:
+            explore: add N(0, explore(t)²) rad to a fine command (training).
+        Returns:
+            joint command (J,), rad, clipped into the joint ranges.
+        Raises:
+            ValueError: u or v not (12,) finite pixels in (a margin around) the image, or a fine
+                move without a coarse one since ``reset()``.
+        """
+        f = self.features(self._pixels("u", u))
+        if v is None:
+            r, s = (int(i[0]) for i in self.winners(f[None]))
+            command = self.theta[r, s] + self.A[r, s] @ (f - self.centre(r, s))
+            self._abar = self.A[r, s].copy()
+            self._fv = self._cmd_before = None
+        else:
+            fv = self.features(self._pixels("v", v))
+            if self._abar is None or self._cmd is None:
+                raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
+            if self._fv is not None and self._cmd_before is not None:
+                self._broyden(self._cmd - self._cmd_before, fv - self._fv)
+            command = self._cmd + self._abar @ (f - fv)
+            self._fv, self._cmd_before = fv, self._cmd
+            if explore:
+                command = command + self.rng.normal(0.0, self.params()[4], self.n_joints)
+        self._cmd = self._clip(command)
+        return self._cmd.copy()
+
+    def act_batch(self, U: np.ndarray) -> np.ndarray:
+        """Coarse commands (M, J) for targets (M, 12), as ``act`` row by row; the fine-move
+        memory is left alone."""
+        U = np.atleast_2d(np.asarray(U, dtype=float))
+        if U.ndim != 2 or U.shape[1] != PIXELS or not np.all(np.isfinite(U)):
+            raise ValueError(f"U must be finite pixels of shape (M, {PIXELS}), got {U.shape}")
+        self._pixel_box.check("U", U)
+        f = self.features(U)
+        r, s = self.winners(f)
+        theta = self.theta[r, s] + np.einsum("mjd,md->mj", self.A[r, s], f - self.centre(r, s))
+        return self._clip(theta)
+
+    # ----------------------------------------------------------------------------- learning
+    def learn(self, u: Array, theta0: Array, v0: Array, theta1: Array, v1: Array) -> bool:
+        """One trial: target u, coarse θ0 -> sensed v0, fine θ1 -> sensed v1 (module docstring).
+
+        Returns False (and learns nothing) when v0 or v1 holds NaN (a marker not seen) or the
+        sensed change is below ``min_dv``. Raises ValueError for a wrong shape or a NaN in u,
+        θ0 or θ1.
+        """
+        f = self.features(self._pixels("u", u))
+        theta0 = np.asarray(theta0, dtype=float)
+        theta1 = np.asarray(theta1, dtype=float)
+        for name, th in (("theta0", theta0), ("theta1", theta1)):
+            if th.shape != self.lower.shape or not np.all(np.isfinite(th)):
+                raise ValueError(f"{name} must be {self.lower.shape} finite joint angles, got {th}")
+        v0, v1 = np.asarray(v0, dtype=float), np.asarray(v1, dtype=float)
+        if v0.shape != (PIXELS,) or v1.shape != (PIXELS,):
+            raise ValueError(f"v0 and v1 must have shape ({PIXELS},), got {v0.shape}, {v1.shape}")
+        if not (np.all(np.isfinite(v0)) and np.all(np.isfinite(v1))):
+            self.skipped["not_visible"] += 1
+            return False
+        self._pixel_box.check("v0", v0)
+        self._pixel_box.check("v1", v1)
+        f0, f1 = self.features(v0), self.features(v1)
+        df = f1 - f0
+        df2 = float(df @ df)
+        if df2 < self.config.min_dv**2:
+            self.skipped["small_dv"] += 1
+            return False
+        r, s = (int(i[0]) for i in self.winners(f[None]))
+        centre = self.centre(np.array([r]), np.array([s]))[0]  # (12,) before the update
+        a = self.A[r, s]  # (J, 12)
+        theta_star = self.theta[r, s] + a @ (f - f0)
+        self.df_cov += WHITEN_RATE * (np.outer(df, df) - self.df_cov)
+        floor = WHITEN_FLOOR * np.trace(self.df_cov) / PIXELS
+        g = np.linalg.solve(self.df_cov + floor * np.eye(PIXELS), df)  # (12,) C⁻¹ Δf
+        a_star = a + np.outer(theta1 - theta0 - a @ df, g) / (g @ df)
+        eps, sigma, eps_out, sigma_out, _ = self.params()
+        box, h = self._positions.neighbours(r, sigma)
+        view = self._positions.view(self.w_pos, box)
+        view += (eps * h)[..., None] * (f[:4] - view)
+        view, h = self._box(self.w_ori, r, s, sigma)
+        view += (eps * h)[..., None] * (f[4:] - view)
+        view, h = self._box(self.theta, r, s, sigma_out)
+        if self.config.transport:  # θ* moved to every leaf's own (new) centre along A*
+            box_p = self._boxes(r, s, sigma_out)[0]
+            w_pos = self._positions.view(self.w_pos, box_p)  # (*box_p, 4)
+            w_ori = self._box(self.w_ori, r, s, sigma_out)[0]  # (*box_p, *box_o, 8)
+            w_pos = w_pos.reshape(w_pos.shape[:-1] + (1,) * (w_ori.ndim - w_pos.ndim) + (4,))
+            shift = (
+                np.concatenate([np.broadcast_to(w_pos, (*w_ori.shape[:-1], 4)), w_ori], axis=-1)
+                - centre
+            )  # (*box_p, *box_o, 12)
+            theta_star = theta_star + shift @ a_star.T  # (*box_p, *box_o, J)
+        view += (eps_out * h)[..., None] * (theta_star - view)
+        view, h = self._box(self.A, r, s, sigma_out)
+        view += (eps_out * h)[..., None, None] * (a_star - view)
+        np.clip(self.theta, self.lower, self.upper, out=self.theta)
+        self.t += 1
+        return True
+
+    def _boxes(self, r: int, s: int, sigma: float) -> tuple[tuple[slice, ...], tuple[slice, ...]]:
+        """The neighbourhood boxes of width σ around r (position) and s (orientation)."""
+        return self._positions.neighbours(r, sigma)[0], self._orientations.neighbours(s, sigma)[0]
+
+    def _box(
+        self, array: np.ndarray, r: int, s: int, sigma: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The leaves of (P, O, ...) ``array`` in both neighbourhoods of width σ around leaf
+        (r, s) as a writable view (*box_p, *box_o, ...), and their weights h_rr' h_ss'
+        (*box_p, *box_o)."""
+        box_p, h_p = self._positions.neighbours(r, sigma)
+        box_o, h_o = self._orientations.neighbours(s, sigma)
+        shape = (*self._positions.shape, *self._orientations.shape, *array.shape[2:])
+        return array.reshape(shape)[(*box_p, *box_o)], np.multiply.outer(h_p, h_o)
+
+    # ----------------------------------------------------------------------------- saving
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the map (options, arrays, t, skip counts, generator state) atomically."""
+        config = self.config.to_dict()
+        config.update(t=self.t, skipped=dict(self.skipped), rng_state=self.rng.bit_generator.state)
+        arrays = {
+            "w_pos": self.w_pos, "w_ori": self.w_ori, "theta": self.theta, "A": self.A,
+            "df_cov": self.df_cov, "joint_lower": self.lower, "joint_upper": self.upper,
+        }  # fmt: skip
+        return save_npz(path, KIND, FORMAT_VERSION, config, arrays)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> HierarchicalSOM:
+        """Read a map written by :meth:`save`.
+
+        Raises:
+            CheckpointError: a missing, damaged or foreign file, or contents that do not fit
+                together (shapes, non-finite values, θ outside the stored joint ranges).
+        """
+        entries, arrays = load_npz(path, KIND, FORMAT_VERSION)
+        try:
+            config = HierarchicalConfig.from_dict(entries)
+            t, skipped, state = entries["t"], entries["skipped"], entries["rng_state"]
+            if not isinstance(t, int) or isinstance(t, bool) or t < 0:
+                raise ValueError(f"t = {t!r} is not a count")
+            if not isinstance(skipped, dict) or set(skipped) != {"not_visible", "small_dv"}:
+                raise ValueError(f"skipped = {skipped!r} is not the two skip counts")
+            if not all(isinstance(n, int) and n >= 0 for n in skipped.values()):
+                raise ValueError(f"skipped = {skipped!r} holds counts that are not integers >= 0")
+            if state.get("bit_generator") not in _BIT_GENERATORS:
+                raise ValueError(f"unknown bit generator in {state!r}")
+            bit_generator = getattr(np.random, state["bit_generator"])()
+            bit_generator.state = state
+            lower, upper = arrays["joint_lower"], arrays["joint_upper"]
+            P, Q, J = config.n_positions, config.n_orientations, len(lower)
+            shapes = {
+                "w_pos": (P, 4), "w_ori": (P, Q, 8), "theta": (P, Q, J), "A": (P, Q, J, PIXELS),
+                "df_cov": (PIXELS, PIXELS), "joint_lower": (J,), "joint_upper": (J,),
+            }  # fmt: skip
+            for name, shape in shapes.items():
+                stored = arrays[name]
+                if stored.shape != shape or stored.dtype != np.float64:
+                    raise ValueError(
+                        f"array {name!r} is {stored.dtype} {stored.shape}, not {shape}"
+                    )
+                check_finite(**{name: stored})
+            som = cls(lower, upper, np.clip(arrays["theta"][0, 0], lower, upper), config, rng=0)
+            if not np.all((lower <= arrays["theta"]) & (arrays["theta"] <= upper)):
+                raise ValueError("theta lies outside the stored joint ranges")
+            for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+                setattr(som, name, arrays[name].copy())
+            som.t, som.skipped = t, dict(skipped)
+            som.rng = np.random.Generator(bit_generator)
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise CheckpointError(
+                f"{path}: incomplete or inconsistent {KIND} checkpoint ({exc}); restore it from "
+                "a copy or retrain"
+            ) from exc
+        return som

@@ -1,0 +1,204 @@
+"""The hierarchical visuomotor map: its moves and learning step against hand-computed values,
+its errors falling with training against the oracle's exact poses, determinism, checkpoints
+and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from envs.studies.grasp_learning import train
+from envs.studies.grasp_oracle import PoseOracle
+from learners.persistence import CheckpointError
+from learners.som.hierarchical import HierarchicalSOM
+from learners.som.hierarchical_config import HierarchicalConfig
+from models.puma560.grasp import READY
+from models.puma560.kinematics import DH
+
+SMALL = {"position_lattice": (3, 3, 2), "orientation_lattice": (2, 2, 2), "t_max": 800}
+TRAINING = 800
+
+
+@pytest.fixture(scope="module")
+def oracle() -> PoseOracle:
+    return PoseOracle()
+
+
+def _map(seed: int = 0, **options) -> HierarchicalSOM:
+    return HierarchicalSOM(DH.lower, DH.upper, READY, rng=seed, **{**SMALL, **options})
+
+
+def _train(som: HierarchicalSOM, oracle: PoseOracle, trials: int, seed: int = 1) -> None:
+    train(som, oracle, trials, np.random.default_rng(seed))
+
+
+def _errors(som, oracle, poses, fine_moves=3):
+    """Mean position (m) and orientation (rad) errors after the coarse and each fine move."""
+    moves = []
+    for u in oracle.pixels(poses):
+        som.reset()
+        theta = [som.act(u)]
+        for _ in range(fine_moves):
+            theta.append(som.act(u, oracle.hand_pixels(theta[-1])))
+        moves.append(theta)
+    position, orientation = oracle.errors(poses[:, None], np.array(moves))
+    return position.mean(axis=0), orientation.mean(axis=0)
+
+
+def _one_leaf(oracle, **options) -> HierarchicalSOM:
+    """A map of one leaf sitting at READY's pixels, with A = a hand-set matrix."""
+    som = HierarchicalSOM(
+        DH.lower, DH.upper, READY, rng=0, position_lattice=(1,), orientation_lattice=(1,),
+        **options,
+    )  # fmt: skip
+    f = som.features(oracle.hand_pixels(READY))
+    som.w_pos[0], som.w_ori[0, 0] = f[:4], f[4:]
+    som.A[0, 0] = np.arange(72.0).reshape(6, 12) * 1e-5
+    return som
+
+
+def test_features_are_the_first_marker_and_the_weighted_offsets():
+    som = _map(orientation_gain=3.0)
+    u = np.arange(12.0) ** 1.5
+    expected = np.concatenate([u[:4], 3.0 * (u[4:8] - u[:4]), 3.0 * (u[8:] - u[:4])])
+    np.testing.assert_allclose(som.features(u), expected, rtol=1e-15)
+
+
+def test_moves_are_the_leaf_linear_map(oracle):
+    """Coarse θ_rs + A (f(u) − c_rs), fine θ + A (f(u) − f(v)), computed by hand."""
+    som = _one_leaf(oracle, refine=False)
+    A = som.A[0, 0].copy()
+    centre = som.features(oracle.hand_pixels(READY))
+    u = oracle.hand_pixels(READY + 0.05)
+    v = oracle.hand_pixels(READY - 0.02)
+    coarse = READY + A @ (som.features(u) - centre)
+    np.testing.assert_allclose(som.act(u), coarse, atol=1e-14)
+    np.testing.assert_allclose(som.act(u, v), coarse + A @ som.features(u - v), atol=1e-14)
+    np.testing.assert_allclose(som.act_batch(np.stack([u, u])), [coarse, coarse], atol=1e-14)
+
+
+def test_refined_fine_move_takes_the_broyden_step(oracle):
+    """From the second fine move on, Ā has taken (Δθ − ĀΔf)Δfᵀ/|Δf|² of the previous move."""
+    som = _one_leaf(oracle)
+    A = som.A[0, 0].copy()
+    u, v0, v1 = (oracle.hand_pixels(READY + d) for d in (0.05, -0.02, 0.01))
+    theta0 = som.act(u)
+    theta1 = som.act(u, v0)
+    dtheta, df = theta1 - theta0, som.features(v1 - v0)
+    refined = A + np.outer(dtheta - A @ df, df) / (df @ df)
+    np.testing.assert_allclose(som.act(u, v1), theta1 + refined @ som.features(u - v1), atol=1e-12)
+
+
+@pytest.mark.parametrize("transport", [False, True])
+def test_learning_step_with_full_rates(oracle, transport):
+    """ε = ε' = 1 on one leaf: w jumps to the target's features f(u); the new A reproduces the
+    trial's move exactly, A* Δf = Δθ (Widrow-Hoff); θ becomes MRS's θ* = θ_rs + A(f(u) − f(v0)),
+    and with ``transport`` θ* moved along A* from the old centre c to the new one, f(u)."""
+    som = _one_leaf(oracle, eps=1.0, eps_out=1.0, transport=transport)
+    A = som.A[0, 0].copy()
+    centre = np.concatenate([som.w_pos[0], som.w_ori[0, 0]])
+    u, v0, v1 = (oracle.hand_pixels(READY + d) for d in (0.05, -0.02, 0.01))
+    theta0, theta1 = READY + 0.01, READY + np.array([0.02, -0.01, 0.03, 0.05, -0.04, 0.02])
+    assert som.learn(u, theta0, v0, theta1, v1)
+    f = som.features(u)
+    np.testing.assert_allclose(np.concatenate([som.w_pos[0], som.w_ori[0, 0]]), f, rtol=1e-15)
+    df = som.features(v1 - v0)
+    np.testing.assert_allclose(som.A[0, 0] @ df, theta1 - theta0, atol=1e-12)
+    theta_star = READY + A @ (f - som.features(v0))
+    if transport:
+        theta_star += som.A[0, 0] @ (f - centre)
+    np.testing.assert_allclose(som.theta[0, 0], theta_star, atol=1e-13)
+    assert som.t == 1
+
+
+def test_errors_fall_with_training(oracle):
+    """Against the oracle's exact poses, on targets the map never trained on."""
+    poses, _ = oracle.targets(np.random.default_rng(99), 60)
+    som = _map()
+    position0, orientation0 = _errors(som, oracle, poses)
+    _train(som, oracle, TRAINING)
+    position, orientation = _errors(som, oracle, poses)
+    assert position[0] < 0.5 * position0[0] and orientation[0] < 0.5 * orientation0[0]
+    assert position[-1] < 0.1 * position0[-1] and orientation[-1] < 0.2 * orientation0[-1]
+    assert np.all(np.diff(position) < 0) and np.all(np.diff(orientation) < 0)
+
+
+def test_same_seed_same_map_other_seed_other_map(oracle):
+    a, b, c = _map(seed=5), _map(seed=5), _map(seed=6)
+    for som in (a, b, c):
+        _train(som, oracle, 60)
+    for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert not np.array_equal(a.w_pos, c.w_pos) and not np.array_equal(a.theta, c.theta)
+
+
+def test_save_load_round_trip_continues_bit_identically(oracle, tmp_path):
+    som = _map()
+    _train(som, oracle, 40)
+    path = som.save(tmp_path / "hsom.npz")
+    loaded = HierarchicalSOM.load(path)
+    assert loaded.config == som.config and loaded.t == som.t and loaded.skipped == som.skipped
+    for target in (som, loaded):
+        _train(target, oracle, 40, seed=3)  # uses the generator: its state was saved too
+    for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+        np.testing.assert_array_equal(getattr(loaded, name), getattr(som, name))
+
+
+def test_damaged_or_foreign_file_is_refused(oracle, tmp_path):
+    path = _map().save(tmp_path / "hsom.npz")
+    data = path.read_bytes()
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(data[: len(data) // 2])
+    with pytest.raises(CheckpointError, match="damaged or truncated"):
+        HierarchicalSOM.load(truncated)
+    flipped = bytearray(data)
+    flipped[len(data) // 3] ^= 0xFF  # inside an array: the CRC no longer matches
+    damaged = tmp_path / "damaged.npz"
+    damaged.write_bytes(bytes(flipped))
+    with pytest.raises(CheckpointError):
+        HierarchicalSOM.load(damaged)
+    som = _map()
+    som.theta[0, 0, 0] = DH.upper[0] + 1.0  # written by hand: outside the joint ranges
+    with pytest.raises(CheckpointError, match="outside the stored joint ranges"):
+        HierarchicalSOM.load(som.save(tmp_path / "outside.npz"))
+
+
+def test_bad_input_gives_one_line_value_errors(oracle):
+    som = _map()
+    u = oracle.hand_pixels(READY)
+    bad_inputs = (u[:4], np.where(np.arange(12) == 5, np.nan, u), u + 1e6)
+    for bad in bad_inputs:
+        for call in (lambda x: som.act(x), lambda x: som.act_batch(x[None])):
+            with pytest.raises(ValueError) as error:
+                call(bad)
+            assert "\n" not in str(error.value), str(error.value)
+    som.reset()
+    with pytest.raises(ValueError, match="coarse act"):
+        som.act(u, u)
+    theta = som.act(u)
+    with pytest.raises(ValueError, match="theta0"):
+        som.learn(u, theta[:3], u, theta, u)
+    assert not som.learn(u, theta, np.full(12, np.nan), theta, u)
+    assert som.skipped["not_visible"] == 1 and som.t == 0
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"position_lattice": (0, 3)}, "position_lattice must be 1 to 3 positive sizes"),
+        ({"orientation_lattice": (2, 2, 2, 2)}, "orientation_lattice must be 1 to 3"),
+        ({"eps": (1.5, 0.1)}, "learning rate in"),
+        ({"orientation_gain": 0.0}, "orientation_gain must be > 0"),
+        ({"refine": "yes"}, "refine must be True or False"),
+        ({"lattice": (3, 3)}, "unknown option"),
+    ],
+)
+def test_bad_options_are_one_line_errors(options, message):
+    with pytest.raises(ValueError, match=message) as error:
+        HierarchicalConfig.of(**options)
+    assert "\n" not in str(error.value)
+
+
+def test_config_round_trips_through_its_dictionary():
+    config = HierarchicalConfig.of(position_lattice=(4, 3), eps=(0.5, 0.05), refine=False)
+    assert HierarchicalConfig.from_dict(config.to_dict()) == config
