@@ -70,6 +70,11 @@ Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range o
 Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine
 moves made with ``act(u, v, explore=True)`` (training) add N(0, explore(t)²) joint noise.
 
+Recovery (``recover=True``, not in the papers): when a camera loses the marker after a move,
+the trial loop asks for recovery moves (``recovery_move``): detours to poses the map learned,
+nearer the middle of what it has seen, until both cameras see the marker; the fine moves then
+correct from there (``learners/som/recovery.py``). Off by default: MRS's loop stops the trial.
+
 Options are one :class:`~learners.som.config.SOMConfig`. The protocol is a strategy of
 ``learners/som/protocols.py`` chosen once when the map is built; :meth:`VisuomotorSOM.with_config`
 builds a map with other options and the same learned state.
@@ -89,7 +94,7 @@ import numpy as np
 from learners.base import Array, Learner, check_pixels
 from learners.guards import InputBox, check_finite
 from learners.persistence import CheckpointError, load_npz, save_npz
-from learners.som import kernels
+from learners.som import kernels, recovery
 from learners.som.compiled_path import PRUNED_SEARCH_MIN, CompiledPath
 from learners.som.config import (
     ABAR,
@@ -227,6 +232,7 @@ class VisuomotorSOM(CompiledPath, Learner):
     min_dv = _option("min_dv")
     protocol = _option("protocol")  # the learner interface's protocol: the strategy chosen from it
     continual = _option("continual")
+    recover = _option("recover")  # the learner interface's recover: ask for recovery_move
 
     def __init__(
         self,
@@ -507,6 +513,20 @@ class VisuomotorSOM(CompiledPath, Learner):
         if v is None:
             return self._protocol.coarse(self, u)
         return self._protocol.fine(self, u, v, explore)
+
+    def recovery_move(self, u: np.ndarray, attempt: int) -> np.ndarray | None:
+        """With ``recover``: the command (J,) of detour ``attempt`` (0, 1, ...) for target u
+        after a move whose marker a camera did not see (``learners/som/recovery.py``), or None
+        when no attempt is left (or ``recover`` is off); the next ``act(u, v)`` corrects from
+        the detour.
+
+        Raises:
+            ValueError: u of the wrong shape or not finite, or no coarse move since the last
+                ``reset()``.
+        """
+        if not self.recover:
+            return None
+        return recovery.detour(self, u, attempt)
 
     def _local_abar(self, u: np.ndarray) -> np.ndarray:
         """Ā (J, D) of the local fit at target u (``learners/som/local_fit.py``)."""
