@@ -446,6 +446,8 @@ class VisuomotorSOM(CompiledPath, Learner):
         self._abar: np.ndarray | None = None  # (J, D) averaged A for the fine moves
         self._v: np.ndarray | None = None  # position sensed before the last fine command
         self._cmd_before: np.ndarray | None = None  # command before the last fine one
+        self._seen_cmd: np.ndarray | None = None  # with recover: last command whose marker ...
+        self._seen_v: np.ndarray | None = None  # ... both cameras saw, and where
 
     def _vector(self, name: str, x: np.ndarray) -> np.ndarray:
         """x as a finite (D,) float array in the input box, else ValueError saying what is
@@ -510,6 +512,11 @@ class VisuomotorSOM(CompiledPath, Learner):
             ValueError: u or v of the wrong shape or not finite, or a fine move without a coarse
                 one since the last ``reset()``; the map and its memory are then unchanged.
         """
+        if self._config.recover:
+            if v is None:
+                self._seen_cmd = self._seen_v = None
+            else:
+                recovery.remember_seen(self, v)
         if v is None:
             return self._protocol.coarse(self, u)
         return self._protocol.fine(self, u, v, explore)
@@ -526,7 +533,7 @@ class VisuomotorSOM(CompiledPath, Learner):
         """
         if not self.recover:
             return None
-        return recovery.detour(self, u, attempt)
+        return recovery.recovery_move(self, u, attempt)
 
     def _local_abar(self, u: np.ndarray) -> np.ndarray:
         """Ā (J, D) of the local fit at target u (``learners/som/local_fit.py``)."""
@@ -606,7 +613,7 @@ class VisuomotorSOM(CompiledPath, Learner):
         return True
 
     # ----------------------------------------------------------------------------- persistence
-    _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before")
+    _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before", "_seen_cmd", "_seen_v")
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write everything needed to continue bit-identically to one ``.npz``, atomically:
@@ -679,7 +686,8 @@ class VisuomotorSOM(CompiledPath, Learner):
                 som._monitor = ErrorMonitor(som.monitor.params, entries["continual_state"])
             som.rng = np.random.Generator(bit_generator)
             J, D = som.n_joints, som.input_dim
-            shapes = {"_u": (D,), "_cmd": (J,), "_abar": (J, D), "_v": (D,), "_cmd_before": (J,)}
+            shapes = {"_u": (D,), "_cmd": (J,), "_abar": (J, D), "_v": (D,), "_cmd_before": (J,),
+                      "_seen_cmd": (J,), "_seen_v": (D,)}  # fmt: skip
             for k in cls._MEMORY:
                 memory = arrays.get(k)
                 if memory is not None and (memory.shape != shapes[k] or memory.dtype != float):
