@@ -14,7 +14,9 @@ Each recovery move is one attempt; attempts are tried in turn until the marker i
         f_a = ``DETOUR_FRACTIONS[a]``
     else, from the last pose θ_s where both cameras saw the marker, at v_s: a shorter step,
         θ_d = θ_s + Ā (g_a − v_s),  g_a = v_s + h_a (u − v_s),  h_a = ``APPROACH_FRACTIONS[a]``
-        and the Broyden step of the next fine move uses this sensed move (θ_s, v_s) -> (θ_d, v_d)
+        and the Broyden step of the next fine move uses this sensed move (θ_s, v_s) -> (θ_d, v_d);
+        the last fraction is 0: back to θ_s itself, which the cameras saw (no Broyden step: the
+        move is too short to measure Ā)
 
 then, as always, θ_{k+1} = θ_d + Ā (u − v_d) with v_d sensed after θ_d. When the target's own
 pose hides the marker, every fine move ends hidden and each recovery halves the lever of the
@@ -37,7 +39,7 @@ if TYPE_CHECKING:
 #: chosen).
 DETOUR_FRACTIONS = (0.1, 0.25, 0.5, 1.0)
 #: Fractions of the way from the last pose seen to the target at which the shorter steps aim.
-APPROACH_FRACTIONS = (0.5, 0.25, 0.125)
+APPROACH_FRACTIONS = (0.5, 0.25, 0.0)
 
 
 def recovery_move(som: VisuomotorSOM, u: np.ndarray, attempt: int) -> np.ndarray | None:
@@ -62,7 +64,11 @@ def recovery_move(som: VisuomotorSOM, u: np.ndarray, attempt: int) -> np.ndarray
     theta_s, v_s = som._seen_cmd, som._seen_v
     goal = v_s + APPROACH_FRACTIONS[attempt] * (u - v_s)  # (D,)
     command = som._clip(theta_s + som._abar @ (goal - v_s))  # (J,)
-    som._cmd, som._v, som._cmd_before = command.copy(), v_s.copy(), theta_s.copy()
+    som._cmd = command.copy()
+    if APPROACH_FRACTIONS[attempt] > 0:
+        som._v, som._cmd_before = v_s.copy(), theta_s.copy()
+    else:
+        som._v, som._cmd_before = None, None
     return command
 
 
