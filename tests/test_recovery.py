@@ -1,8 +1,14 @@
 """Recovery from a hidden marker (``SOMConfig.recover``): the moves by hand on a hand-set map,
 a rendered scene where the arm hides its own marker after the coarse move, the evaluation's
-counts, and a map saved in the middle of a recovery that goes on bit-identically."""
+counts, and a map saved in the middle of a recovery that goes on bit-identically. Learning in
+the realistic setting (foveated rendering, servo moves): it improves with trials, measured by
+the simulator's ground truth, and a stopped run resumes bit-identically."""
 
 from __future__ import annotations
+
+import json
+import os
+import signal
 
 import gymnasium as gym
 import numpy as np
@@ -10,7 +16,8 @@ import pytest
 
 import envs  # noqa: F401 - registers the reach envs
 from envs.harness.evaluation import evaluate
-from envs.harness.training import RunConfig, initial_map
+from envs.harness.stopping import StopRequested
+from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer, initial_map
 from envs.harness.trials import learn_from, run_trial
 from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM, kernels
@@ -189,3 +196,47 @@ def test_recover_is_stored_only_when_on_and_checked():
     assert SOMConfig.from_dict(SOMConfig(recover=True).to_dict()).recover is True
     with pytest.raises(ValueError, match=r"SOMConfig\.recover must be True or False"):
         SOMConfig(recover="yes")
+
+
+#: A small run in the realistic setting: foveated rendering and servo moves.
+REALISTIC = RunConfig(sensing="foveated", control="servo", trials=120, lattice=(4, 3, 2),
+                      eval_every=60, eval_trials=20, seed=4)  # fmt: skip
+
+
+def _run(trainer: Trainer, **kw) -> Trainer:
+    try:
+        trainer.run(checkpoint_every=1000, **kw)
+    finally:
+        trainer.close()
+    return trainer
+
+
+@pytest.fixture(scope="module")
+def realistic_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("realistic")
+    _run(Trainer(REALISTIC, out))
+    return out
+
+
+def test_a_map_learned_from_rendered_sensing_improves_with_trials(realistic_run):
+    """Held-out distances are the simulator's ground truth, not what the cameras sensed."""
+    rows = [json.loads(line) for line in (realistic_run / METRICS_FILE).read_text().splitlines()]
+    assert [r["trial"] for r in rows] == [0, 60, 120]
+    coarse = [r["mean_mm"][0] for r in rows]
+    assert coarse[2] < coarse[1] < coarse[0] and coarse[2] < 0.3 * coarse[0], coarse
+    assert rows[2]["mean_mm"][-1] < 0.7 * coarse[2]  # the fine moves correct further
+
+
+def test_realistic_training_resumes_bit_identically(realistic_run, tmp_path):
+    def interrupt(trial, running):
+        if trial == 70:
+            os.kill(os.getpid(), signal.SIGINT)  # a real signal, noted by the trainer's handler
+
+    with pytest.raises(StopRequested):
+        _run(Trainer(REALISTIC, tmp_path), progress=interrupt)
+    _run(Trainer.resume(tmp_path))
+    whole, resumed = (VisuomotorSOM.load(d / MAP_FILE) for d in (realistic_run, tmp_path))
+    for name in ("w", "theta", "A"):
+        np.testing.assert_array_equal(getattr(resumed, name), getattr(whole, name))
+    assert (resumed.t, resumed.skipped) == (whole.t, whole.skipped)
+    assert (tmp_path / METRICS_FILE).read_text() == (realistic_run / METRICS_FILE).read_text()
