@@ -23,7 +23,7 @@ from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM, kernels
 from learners.som.recovery import APPROACH_FRACTIONS, DETOUR_FRACTIONS
 
-from helpers import SMALL_COORDS, hand_set_map
+from helpers import SMALL_COORDS, forbid_the_exact_model, hand_set_map
 
 LOW, HIGH = np.array([-5.0, -5.0]), np.array([5.0, 5.0])
 #: Trials of the small RIACS map the scene uses (exact projection, kinematic moves: seconds).
@@ -124,28 +124,6 @@ def rendered():
     env.close()
 
 
-def _forbid_the_exact_model(monkeypatch) -> None:
-    """Kinematics, IK and the camera model raise if touched (as in test_training.py)."""
-    import models.arms
-    import models.puma560
-    import models.puma560.inverse
-    import models.puma560.kinematics
-    import models.riacs.kinematics
-    from envs.sensing.stereo import StereoRig
-
-    def forbidden(*args, **kwargs):
-        raise AssertionError("the learner used the exact model")
-
-    for module, name in [(models.arms, "arm_kinematics"), (models.puma560, "wrist_ik"),
-                         (models.puma560.kinematics, "wrist_ik"),
-                         (models.puma560.kinematics, "wrist_center"),
-                         (models.puma560.inverse, "pose_ik"),
-                         (models.riacs.kinematics, "robot3dinv"),
-                         (models.riacs.kinematics, "robot3df"),
-                         (StereoRig, "project"), (StereoRig, "project_with_depth")]:  # fmt: skip
-        monkeypatch.setattr(module, name, forbidden)
-
-
 def test_the_arm_hiding_its_marker_after_the_coarse_move_no_longer_stops_the_trial(
     riacs_map, rendered, monkeypatch
 ):
@@ -154,7 +132,7 @@ def test_the_arm_hiding_its_marker_after_the_coarse_move_no_longer_stops_the_tri
     assert stopped.target_visible and len(stopped.distances) == 1  # MRS's loop stops here
     assert not np.isfinite(stopped.sensed_px[0]).any() and stopped.recovery_moves == 0
 
-    _forbid_the_exact_model(monkeypatch)  # recovery never uses the exact model
+    forbid_the_exact_model(monkeypatch)  # recovery never uses the exact model
     rendered.reset(seed=SCENE_SEED)
     recovered = run_trial(rendered, riacs_map.with_config(recover=True), fine_moves=2)
     np.testing.assert_array_equal(recovered.target_pos, stopped.target_pos)
