@@ -1,9 +1,10 @@
 """Held-out evaluation of a controller on a reach env: errors after each move, every trial counted.
 
 A trial stops when a marker is not seen (the controller cannot correct from a position it did not
-see). The arm then stays where it is, so the error after every later move is the error where it
-stopped: those values are carried forward, and every mean, median and percentile counts all
-trials. A trial whose target was not seen makes no move and keeps the error of its start pose.
+see), unless the controller recovers (``Controller.recover``; its extra moves are counted). The
+error after every later move of a stopped trial is the error where it stopped: those values are
+carried forward, and every mean, median and percentile counts all trials. A trial whose
+target was not seen makes no move and keeps the error of its start pose.
 """
 
 from __future__ import annotations
@@ -33,6 +34,9 @@ class Evaluation:
     reach: float  # m
     seconds_per_query: float  # controller time per act() call
     moves_made: np.ndarray | None = None  # (n,) int, moves made before a trial stopped
+    #: (n,) int, recovery moves of each trial; None: the controller did not recover (the
+    #: summary then has no recovery entries)
+    recovery_moves: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.moves_made is None:
@@ -50,12 +54,13 @@ class Evaluation:
     def summary(self) -> dict[str, object]:
         """Per move, over all trials: mean, median and 95th percentile in mm, mean in % of reach,
         mean, median and 95th percentile in px; the fraction of trials that made each move; the
-        complete trials (count and fraction). JSON-ready."""
+        complete trials (count and fraction); with recovery, the trials that made recovery
+        moves and the mean recovery moves per trial. JSON-ready."""
         mm = self.distances * MM_PER_M
         px = self.pixel_errors
         mean_m = self.distances.mean(axis=0)
         made = self.moves_made[:, None] > np.arange(self.moves)  # (n, moves)
-        return {
+        out = {
             "trials": len(self.distances),
             "complete_trials": int(self.complete.sum()),
             "complete_fraction": round(float(self.complete.mean()), 5),
@@ -69,6 +74,10 @@ class Evaluation:
             "p95_px": np.percentile(px, PERCENTILE, axis=0).round(4).tolist(),
             "microseconds_per_query": round(self.seconds_per_query * 1e6, 2),
         }
+        if self.recovery_moves is not None:
+            out["recovered_trials"] = int((self.recovery_moves > 0).sum())
+            out["mean_recovery_moves"] = round(float(self.recovery_moves.mean()), 5)
+        return out
 
 
 class _TimedController(Controller):
@@ -80,6 +89,13 @@ class _TimedController(Controller):
     @property
     def protocol(self) -> str:
         return self.inner.protocol
+
+    @property
+    def recover(self) -> bool:
+        return self.inner.recover
+
+    def recovery_move(self, u, attempt):
+        return self.inner.recovery_move(u, attempt)
 
     def act(self, u, v=None, explore=False):
         start = time.perf_counter()
@@ -113,12 +129,14 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
     targets = np.zeros((trials, 3))
     reached = np.zeros((trials, 3))
     made = np.zeros(trials, dtype=int)
+    recoveries = np.zeros(trials, dtype=int)
     timed = _TimedController(controller)
     for i in range(trials):
         trial = run_trial(env, timed, fine_moves)
         distances[i], pixels[i], reached[i] = carried_forward(trial, moves)
         targets[i] = trial.target_pos
         made[i] = len(trial.distances)
+        recoveries[i] = trial.recovery_moves
     return Evaluation(
         distances,
         pixels,
@@ -127,4 +145,5 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
         env.unwrapped.reach,
         timed.seconds / max(timed.calls, 1),
         made,
+        recoveries if controller.recover else None,
     )
