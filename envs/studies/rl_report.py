@@ -13,47 +13,91 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from envs.harness.plots import save_figure
-from envs.studies.rl_comparison import THRESHOLDS, Curve, steps_to_reach
+from envs.reach import MAX_EPISODE_STEPS
+from envs.studies import rl_runs
+from envs.studies.rl_comparison import (
+    SUCCESS_THRESHOLDS,
+    THRESHOLDS,
+    Curve,
+    steps_to_reach,
+    success_key,
+)
 
-LABELS = {"map": "visuomotor map", "sac_her": "SAC + HER", "sac": "SAC", "ppo": "PPO"}
-COLOURS = {"map": "C0", "sac_her": "C1", "sac": "C3", "ppo": "C2"}  # the same in every plot
+LABELS = {
+    "map": "visuomotor map",
+    "sac_her": "SAC + HER",
+    "sac": "SAC",
+    "ppo": "PPO",
+    "sac_pixels": "SAC on images",
+}
+#: the same in every plot
+COLOURS = {"map": "C0", "sac_her": "C1", "sac": "C3", "ppo": "C2", "sac_pixels": "C4"}
+VARIANT_LABELS = {"g2": "2 gradient steps / env step", "gamma0.5": "γ 0.5"}
+VARIANT_STYLES = {"zoo": "-", "g2": "--", "gamma0.5": "-."}
+LEGACY_FILE = "curves.jsonl"  # the comparison's output before runs had folders
 MM, MS = 1e3, 1e3  # m -> mm, s -> ms
 
 
+def label(curve: Curve) -> str:
+    """The method's name, with its variant and episode length when not the defaults."""
+    notes = [VARIANT_LABELS[curve.variant]] if curve.variant in VARIANT_LABELS else []
+    if curve.episode_steps != MAX_EPISODE_STEPS:
+        notes.append(f"{curve.episode_steps}-move episodes")
+    text = LABELS.get(curve.method, curve.method)
+    return f"{text} ({', '.join(notes)})" if notes else text
+
+
 def group(curves: list[Curve]) -> dict[str, list[Curve]]:
-    """Curves by method, in the order first seen."""
+    """Curves by :func:`label`, in the order first seen."""
     out: dict[str, list[Curve]] = {}
     for c in curves:
-        out.setdefault(c.method, []).append(c)
+        out.setdefault(label(c), []).append(c)
     return out
 
 
-def table(curves: list[Curve]) -> str:
-    """Markdown: final mean/median distance at the budget (mean ± sd over seeds for the mean),
-    steps to reach each threshold, training wall time per env step."""
+def at_step(curve: Curve, steps: int | None) -> int:
+    """Index of the last checkpoint at or below ``steps`` (the last one for None)."""
+    if steps is None:
+        return len(curve.steps) - 1
+    return max(int(np.searchsorted(curve.steps, steps, side="right")) - 1, 0)
+
+
+def table(curves: list[Curve], at: int | None = None) -> str:
+    """Markdown: mean/median final distance at the budget, or at the last checkpoint at or
+    below ``at`` env steps (mean ± sd over seeds for the mean), the success fractions there when
+    the curves have them, steps to reach each threshold, training wall time per env step."""
     head = " | ".join(f"steps to {t * MM:g} mm" for t in THRESHOLDS)
+    successes = all(c.success for c in curves)
+    keys = [success_key(t) for t in SUCCESS_THRESHOLDS] if successes else []
+    success_head = "".join(f" success < {t * MM:g} mm |" for t in SUCCESS_THRESHOLDS[: len(keys)])
     lines = [
-        f"| method | seeds | env steps | mean final [mm] | median final [mm] | {head} | "
-        "train ms / env step |",
-        "|---|---|---|---|---|" + "---|" * len(THRESHOLDS) + "---|",
+        f"| method | seeds | env steps | mean final [mm] | median final [mm] |{success_head} "
+        f"{head} | train ms / env step |",
+        "|---|---|---|---|---|" + "---|" * (len(keys) + len(THRESHOLDS)) + "---|",
     ]
-    for method, runs in group(curves).items():
-        final = np.array([c.mean_m[-1] for c in runs]) * MM
-        median = np.mean([c.median_m[-1] for c in runs]) * MM
+    for name, runs in group(curves).items():
+        i = [at_step(c, at) for c in runs]
+        final = np.array([c.mean_m[k] for c, k in zip(runs, i, strict=True)]) * MM
+        median = np.mean([c.median_m[k] for c, k in zip(runs, i, strict=True)]) * MM
+        rates = [np.mean([c.success[key][k] for c, k in zip(runs, i, strict=True)]) for key in keys]
+        success = "".join(f" {r:.0%} |" for r in rates)
         reached = [steps_to_reach(runs, t) for t in THRESHOLDS]
         cells = " | ".join("not reached" if s is None else f"{s:,}" for s in reached)
         ms = np.mean([c.train_seconds / c.steps[-1] for c in runs]) * MS
         spread = f" ± {final.std(ddof=1):.2f}" if len(runs) > 1 else ""
         lines.append(
-            f"| {LABELS.get(method, method)} | {len(runs)} | {runs[0].steps[-1]:,} | "
-            f"{final.mean():.2f}{spread} | {median:.2f} | {cells} | {ms:.2f} |"
+            f"| {name} | {len(runs)} | {runs[0].steps[i[0]]:,} | "
+            f"{final.mean():.2f}{spread} | {median:.2f} |{success} {cells} | {ms:.2f} |"
         )
     return "\n".join(lines)
 
 
-def load(path: Path) -> dict[tuple[str, str, str], list[Curve]]:
+Setting = tuple[str, str, str]  # env, sensing, control
+
+
+def load(path: Path) -> dict[Setting, list[Curve]]:
     """Curves of a ``curves.jsonl`` by (env, sensing, control), in the order written."""
-    out: dict[tuple[str, str, str], list[Curve]] = {}
+    out: dict[Setting, list[Curve]] = {}
     for line in path.read_text().splitlines():
         row = json.loads(line)
         key = (row.pop("env"), row.pop("sensing"), row.pop("control"))
@@ -61,14 +105,31 @@ def load(path: Path) -> dict[tuple[str, str, str], list[Curve]]:
     return out
 
 
-def report(folder: Path, targets: int) -> str:
-    """Table (markdown) and one plot per env and setting from ``folder/curves.jsonl``; writes
-    ``folder/table.md`` and ``folder/<env>_<sensing>_<control>.png``; returns the table."""
+def load_folder(folder: Path) -> dict[Setting, list[Curve]]:
+    """The curves of ``folder/curves.jsonl`` (if any), then of its finished runs
+    (``envs.studies.rl_runs``), by (env, sensing, control)."""
+    out = load(folder / LEGACY_FILE) if (folder / LEGACY_FILE).is_file() else {}
+    for spec, curve in rl_runs.finished(folder):
+        out.setdefault((spec.env, spec.sensing, spec.control), []).append(curve)
+    return out
+
+
+def has_runs(folder: Path) -> bool:
+    """Whether ``folder`` holds anything to report."""
+    return bool(load_folder(folder))
+
+
+def report(folder: Path, targets: int, table_at: list[int] | None = None) -> str:
+    """Table (markdown) and one plot per env and setting from ``folder``'s curves
+    (:func:`load_folder`); writes ``folder/table.md`` and ``folder/<env>_<sensing>_<control>.png``;
+    returns the table. ``table_at``: also tabulate at these env steps."""
     sections = []
-    for (env_id, sensing, control), curves in load(folder / "curves.jsonl").items():
+    for (env_id, sensing, control), curves in load_folder(folder).items():
         title = f"{env_id} ({sensing}, {control}), {targets} held-out targets"
         plot(curves, title, folder / f"{env_id}_{sensing}_{control}.png")
-        sections.append(f"### {title}\n\n{table(curves)}\n")
+        for at in [*(table_at or []), None]:
+            where = "" if at is None else f", at {at:,} env steps"
+            sections.append(f"### {title}{where}\n\n{table(curves, at)}\n")
     text = "\n".join(sections)
     (folder / "table.md").write_text(text)
     return text
