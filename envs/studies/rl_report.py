@@ -141,24 +141,35 @@ def plot(curves: list[Curve], title: str, path: Path) -> Path:
 
 
 def figure(curves: list[Curve], title: str) -> Figure:
-    """Mean final distance vs env steps, log-log: one line per method (the mean over its seeds,
-    one point per checkpoint), the band the range of the seeds, and a dotted line per
-    threshold."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    for method, runs in group(curves).items():
-        steps = np.mean([c.steps for c in runs], axis=0)
-        mm = np.array([c.mean_m for c in runs]) * MM  # (seeds, checkpoints)
-        colour = COLOURS[method]
-        label = f"{LABELS[method]} ({len(runs)} seed{'s' if len(runs) > 1 else ''})"
-        ax.loglog(steps, mm.mean(axis=0), marker="o", ms=3, color=colour, label=label)
-        if len(runs) > 1:
-            ax.fill_between(steps, mm.min(axis=0), mm.max(axis=0), color=colour, alpha=0.2)
-    for t in THRESHOLDS:
-        ax.axhline(t * MM, color="grey", lw=0.6, ls=":")
-    ax.set_xlabel("environment steps (moves)")
-    ax.set_ylabel("mean final distance [mm]")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
-    ax.set_title(title)
+    """Mean final distance vs env steps, log-log: one line per method and variant (the mean over
+    its seeds, one point per checkpoint; variants dashed), the band the range of the seeds, and
+    a dotted line per threshold; one panel per episode length when there are several."""
+    lengths = sorted({c.episode_steps for c in curves}, reverse=True)
+    fig, axes = plt.subplots(
+        1, len(lengths), figsize=(6.4 * len(lengths), 4.2), sharey=True, squeeze=False
+    )
+    for ax, length in zip(axes[0], lengths, strict=True):
+        for name, runs in group([c for c in curves if c.episode_steps == length]).items():
+            steps = np.mean([c.steps for c in runs], axis=0)
+            mm = np.array([c.mean_m for c in runs]) * MM  # (seeds, checkpoints)
+            colour, style = COLOURS[runs[0].method], VARIANT_STYLES.get(runs[0].variant, "-")
+            if len(lengths) > 1:
+                name = LABELS.get(runs[0].method, runs[0].method) + (
+                    f" ({VARIANT_LABELS[runs[0].variant]})" if runs[0].variant in VARIANT_LABELS
+                    else ""
+                )  # fmt: skip
+            seeds = f"{len(runs)} seed{'s' if len(runs) > 1 else ''}"
+            label_text = f"{name[:-1]}, {seeds})" if name.endswith(")") else f"{name} ({seeds})"
+            ax.loglog(steps, mm.mean(axis=0), marker="o", ms=3, color=colour, ls=style,
+                      label=label_text)  # fmt: skip
+            if len(runs) > 1:
+                ax.fill_between(steps, mm.min(axis=0), mm.max(axis=0), color=colour, alpha=0.2)
+        for t in THRESHOLDS:
+            ax.axhline(t * MM, color="grey", lw=0.6, ls=":")
+        ax.set_xlabel("environment steps (moves)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize="small")
+        ax.set_title(title if len(lengths) == 1 else f"{title}\n{length}-move episodes")
+    axes[0][0].set_ylabel("mean final distance [mm]")
     fig.tight_layout()
     return fig
