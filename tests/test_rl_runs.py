@@ -52,7 +52,8 @@ def test_a_folder_of_another_run_is_refused(tmp_path):
 
 
 def _write_runs(out) -> None:
-    """Two map seeds and one SAC (γ 0.5) and one one-move SAC run, finished; one SAC unfinished."""
+    """Finished: two map seeds, one SAC (γ 0.5), one one-move SAC. Under way: a second SAC (γ 0.5)
+    seed at its 2nd checkpoint, and a SAC run with no checkpoint yet."""
     runs = [
         (_spec("map", 0), [0.020, 0.005, 0.001], [[0.0, 0.5, 1.0], [0.5, 1.0, 1.0]]),
         (_spec("map", 1), [0.040, 0.010, 0.003], [[0.0, 0.0, 0.5], [0.0, 0.5, 1.0]]),
@@ -65,9 +66,14 @@ def _write_runs(out) -> None:
                       spec.episode_steps, success)  # fmt: skip
         write_json(out / "runs" / spec.folder / "curve.json",
                    {"spec": spec.to_json(), "done": True, "curve": curve.to_json()})  # fmt: skip
-    unfinished = _spec("sac", 1)
-    data = {"spec": unfinished.to_json(), "done": False, "curve": Curve("sac", 1).to_json()}
-    write_json(out / "runs" / unfinished.folder / "curve.json", data)
+    under_way = _spec("sac", 1, "gamma0.5")
+    success = {"5mm": [0.0, 0.0], "10mm": [0.0, 0.0], "20mm": [0.0, 0.5]}
+    curve = Curve("sac", 1, STEPS[:2], [0.5, 0.1], [0.5, 0.1], 5.0, "gamma0.5", 4, success)
+    data = {"spec": under_way.to_json(), "done": False, "curve": curve.to_json()}
+    write_json(out / "runs" / under_way.folder / "curve.json", data)
+    empty = _spec("sac", 2)
+    data = {"spec": empty.to_json(), "done": False, "curve": Curve("sac", 2).to_json()}
+    write_json(out / "runs" / empty.folder / "curve.json", data)
 
 
 def test_report_from_run_folders_with_success_columns(tmp_path):
@@ -83,9 +89,11 @@ def test_report_from_run_folders_with_success_columns(tmp_path):
     # by hand: the map's 5 mm fractions at 10,000 steps 1.0 and 0.5 -> 75 %; 10 mm 1.0, 1.0
     assert rows["visuomotor map"][1:8] == ["2", "10,000", "2.00 ± 1.41", "2.00", "75%", "100%",
                                            "100%"]  # fmt: skip
-    assert rows["SAC (γ 0.5)"][1:8] == ["1", "10,000", "100.00", "100.00", "0%", "25%", "100%"]
-    assert rows["SAC (1-move episodes)"][1:5] == ["1", "10,000", "30.00", "30.00"]
-    assert len(rows) == 3  # the unfinished run is left out
+    assert rows["SAC (1-move episodes)"][1:8] == ["1", "10,000", "30.00", "30.00", "0%", "25%",
+                                                  "100%"]  # fmt: skip
+    # γ 0.5: cut to the 2 checkpoints both seeds have: means 200 and 100 mm at 1,000 steps
+    assert rows["SAC (γ 0.5)"][1:5] == ["2", "1,000", "150.00 ± 70.71", "150.00"]
+    assert len(rows) == 3  # the run without a checkpoint is left out
     at = {r.strip("| ").split(" | ")[0]: r.strip("| ").split(" | ") for r in
           first.splitlines()[4:] if r.startswith("|")}  # fmt: skip
     # at 5,000 steps: the checkpoint at 1,000 (means 5 and 10 mm -> 7.50, sd 3.54)

@@ -48,10 +48,14 @@ def label(curve: Curve) -> str:
 
 
 def group(curves: list[Curve]) -> dict[str, list[Curve]]:
-    """Curves by :func:`label`, in the order first seen."""
+    """Curves by :func:`label`, in the order first seen, each cut to the checkpoints all of its
+    seeds have reached (runs still under way have fewer)."""
     out: dict[str, list[Curve]] = {}
     for c in curves:
         out.setdefault(label(c), []).append(c)
+    for name, runs in out.items():
+        reached = min(len(c.steps) for c in runs)
+        out[name] = [c if len(c.steps) == reached else rl_runs.truncated(c, reached) for c in runs]
     return out
 
 
@@ -106,10 +110,11 @@ def load(path: Path) -> dict[Setting, list[Curve]]:
 
 
 def load_folder(folder: Path) -> dict[Setting, list[Curve]]:
-    """The curves of ``folder/curves.jsonl`` (if any), then of its finished runs
-    (``envs.studies.rl_runs``), by (env, sensing, control)."""
+    """The curves of ``folder/curves.jsonl`` (if any), then of its runs
+    (``envs.studies.rl_runs``; those under way up to their last checkpoint), by (env, sensing,
+    control)."""
     out = load(folder / LEGACY_FILE) if (folder / LEGACY_FILE).is_file() else {}
-    for spec, curve in rl_runs.finished(folder):
+    for spec, curve, _ in rl_runs.saved_runs(folder):
         out.setdefault((spec.env, spec.sensing, spec.control), []).append(curve)
     return out
 

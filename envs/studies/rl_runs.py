@@ -139,7 +139,7 @@ class Store:
             model.load_replay_buffer(self.folder / model_state["extra"])
         curve = Curve(**saved["curve"])
         keep = sum(s <= model.num_timesteps for s in curve.steps)
-        curve = _truncated(curve, keep)
+        curve = truncated(curve, keep)
         curve.train_seconds = model_state["train_seconds"]
         return model, venv, curve
 
@@ -203,16 +203,17 @@ def run(spec: RunSpec, out: Path) -> Curve | None:
         lock.release()
 
 
-def finished(out: Path) -> Iterator[tuple[RunSpec, Curve]]:
-    """Every finished run under ``out/runs``, in folder order."""
+def saved_runs(out: Path) -> Iterator[tuple[RunSpec, Curve, bool]]:
+    """Every run under ``out/runs`` with at least one checkpoint: spec, curve so far, whether it
+    is finished; in folder order."""
     for path in sorted((out / RUNS_FOLDER).glob(f"**/{CURVE_FILE}")):
         saved = _read_json(path)
-        if saved is not None and saved["done"]:
+        if saved is not None and saved["curve"]["steps"]:
             spec = {**saved["spec"], "points": tuple(saved["spec"]["points"])}
-            yield RunSpec(**spec), Curve(**saved["curve"])
+            yield RunSpec(**spec), Curve(**saved["curve"]), saved["done"]
 
 
-def _truncated(curve: Curve, keep: int) -> Curve:
+def truncated(curve: Curve, keep: int) -> Curve:
     """``curve`` with its first ``keep`` checkpoints."""
     data = curve.to_json()
     for name in ("steps", "mean_m", "median_m"):
