@@ -16,8 +16,10 @@ from envs.harness.plots import save_figure
 from envs.reach import MAX_EPISODE_STEPS
 from envs.studies import rl_runs
 from envs.studies.rl_comparison import (
+    METHODS,
     SUCCESS_THRESHOLDS,
     THRESHOLDS,
+    VARIANTS,
     Curve,
     steps_to_reach,
     success_key,
@@ -114,9 +116,21 @@ def load_folder(folder: Path) -> dict[Setting, list[Curve]]:
     (``envs.studies.rl_runs``; those under way up to their last checkpoint), by (env, sensing,
     control)."""
     out = load(folder / LEGACY_FILE) if (folder / LEGACY_FILE).is_file() else {}
-    for spec, curve, _ in rl_runs.saved_runs(folder):
+    runs = sorted(rl_runs.saved_runs(folder), key=lambda run: _order(run[1]))
+    for spec, curve, _ in runs:
         out.setdefault((spec.env, spec.sensing, spec.control), []).append(curve)
     return out
+
+
+def _order(curve: Curve) -> tuple:
+    """Longer episodes first, then methods and variants in their declared order, then seeds."""
+    known = [*METHODS, curve.method]
+    return (
+        -curve.episode_steps,
+        known.index(curve.method),
+        [*VARIANTS, curve.variant].index(curve.variant),
+        curve.seed,
+    )
 
 
 def has_runs(folder: Path) -> bool:
