@@ -99,3 +99,26 @@ def test_report_from_run_folders_with_success_columns(tmp_path):
     # at 5,000 steps: the checkpoint at 1,000 (means 5 and 10 mm -> 7.50, sd 3.54)
     assert at["visuomotor map"][1:5] == ["2", "1,000", "7.50 ± 3.54", "7.50"]
     assert_drawn_png(tmp_path / "RiacsReach-v0_project_kinematic.png")
+
+
+def test_figure_has_a_success_row_and_a_panel_per_episode_length():
+    success = [{"5mm": [0.0] * 3, "10mm": ten, "20mm": [1.0] * 3} for ten in
+               ([0.0, 0.5, 1.0], [0.0, 0.0, 0.5], [0.2, 0.4, 0.6])]  # fmt: skip
+    curves = [
+        Curve("map", 0, STEPS, [0.02, 0.005, 0.001], [0.0] * 3, 1.0, "zoo", 4, success[0]),
+        Curve("map", 1, STEPS, [0.04, 0.010, 0.003], [0.0] * 3, 1.0, "zoo", 4, success[1]),
+        Curve("sac", 0, STEPS, [0.3, 0.2, 0.1], [0.0] * 3, 1.0, "g2", 1, success[2]),
+    ]
+    fig = rl_report.figure(curves, "t")
+    (top_four, top_one), (low_four, low_one) = np.array(fig.axes).reshape(2, 2)
+    assert (
+        top_four.get_title() == "t\n4-move episodes" and top_one.get_title() == "t\n1-move episodes"
+    )
+    assert [line.get_label() for line in top_one.get_lines() if line.get_label()[0] != "_"] == [
+        "SAC (2 gradient steps / env step, 1 seed)"
+    ]
+    assert top_one.get_lines()[0].get_linestyle() == "--"  # the variant's style
+    # the success row: the mean over seeds of the 10 mm fractions, by hand
+    np.testing.assert_allclose(low_four.get_lines()[0].get_ydata(), [0.0, 0.25, 0.75])
+    np.testing.assert_allclose(low_one.get_lines()[0].get_ydata(), [0.2, 0.4, 0.6])
+    assert low_four.get_ylabel() == "share of episodes < 10 mm"

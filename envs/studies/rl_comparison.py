@@ -72,7 +72,8 @@ VARIANT_METHODS: dict[str, tuple[str, ...]] = {
 }
 #: Image-based SAC (``sac_pixels``): both camera images (``obs_mode="pixels"``, no joint angles)
 #: and the goal pixels; one NatureCNN per image shared by actor and critic (SB3 then trains it
-#: through the critic only), a smaller batch: a gradient step on CPU is ~100× SAC's on states.
+#: through the critic only, as DrQ and SAC-AE do), a smaller batch: CNN gradient steps on a CPU
+#: are costly (docs/decisions.md).
 PIXEL_SAC_KWARGS: dict[str, Any] = {
     "batch_size": 64,
     "policy_kwargs": {**SAC_KWARGS["policy_kwargs"], "share_features_extractor": True},

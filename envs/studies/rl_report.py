@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib
@@ -159,36 +160,58 @@ def plot(curves: list[Curve], title: str, path: Path) -> Path:
     return save_figure(figure(curves, title), path, bbox_inches=None)
 
 
+SUCCESS_PLOTTED = 0.010  # m: the success curve drawn under the distances
+
+
 def figure(curves: list[Curve], title: str) -> Figure:
     """Mean final distance vs env steps, log-log: one line per method and variant (the mean over
-    its seeds, one point per checkpoint; variants dashed), the band the range of the seeds, and
-    a dotted line per threshold; one panel per episode length when there are several."""
+    its seeds, one point per checkpoint; variants in other line styles), the band the range of
+    the seeds, and a dotted line per threshold; one panel per episode length when there are
+    several. Curves with success fractions get a second row: the fraction of episodes below
+    ``SUCCESS_PLOTTED``, mean over seeds."""
     lengths = sorted({c.episode_steps for c in curves}, reverse=True)
+    rows = 2 if all(c.success for c in curves) else 1
     fig, axes = plt.subplots(
-        1, len(lengths), figsize=(6.4 * len(lengths), 4.2), sharey=True, squeeze=False
+        rows,
+        len(lengths),
+        figsize=(6.4 * len(lengths), 4.2 + 2.4 * (rows - 1)),
+        sharex="col",
+        squeeze=False,
+        gridspec_kw={"height_ratios": [1.75, 1][:rows]},
     )
-    for ax, length in zip(axes[0], lengths, strict=True):
-        for name, runs in group([c for c in curves if c.episode_steps == length]).items():
+    for col, length in enumerate(lengths):
+        ax = axes[0][col]
+        for runs in group([c for c in curves if c.episode_steps == length]).values():
+            first = runs[0]
             steps = np.mean([c.steps for c in runs], axis=0)
             mm = np.array([c.mean_m for c in runs]) * MM  # (seeds, checkpoints)
-            colour, style = COLOURS[runs[0].method], VARIANT_STYLES.get(runs[0].variant, "-")
-            if len(lengths) > 1:
-                name = LABELS.get(runs[0].method, runs[0].method) + (
-                    f" ({VARIANT_LABELS[runs[0].variant]})" if runs[0].variant in VARIANT_LABELS
-                    else ""
-                )  # fmt: skip
-            seeds = f"{len(runs)} seed{'s' if len(runs) > 1 else ''}"
-            label_text = f"{name[:-1]}, {seeds})" if name.endswith(")") else f"{name} ({seeds})"
-            ax.loglog(steps, mm.mean(axis=0), marker="o", ms=3, color=colour, ls=style,
-                      label=label_text)  # fmt: skip
+            line = {"color": COLOURS[first.method], "ls": VARIANT_STYLES.get(first.variant, "-")}
+            ax.loglog(steps, mm.mean(axis=0), marker="o", ms=3, label=_legend(first, len(runs),
+                      with_episode=len(lengths) == 1), **line)  # fmt: skip
             if len(runs) > 1:
-                ax.fill_between(steps, mm.min(axis=0), mm.max(axis=0), color=colour, alpha=0.2)
+                ax.fill_between(steps, mm.min(axis=0), mm.max(axis=0), color=line["color"],
+                                alpha=0.2)  # fmt: skip
+            if rows == 2:
+                rate = np.mean([c.success[success_key(SUCCESS_PLOTTED)] for c in runs], axis=0)
+                axes[1][col].semilogx(steps, rate, marker="o", ms=3, **line)
         for t in THRESHOLDS:
             ax.axhline(t * MM, color="grey", lw=0.6, ls=":")
-        ax.set_xlabel("environment steps (moves)")
-        ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize="small")
         ax.set_title(title if len(lengths) == 1 else f"{title}\n{length}-move episodes")
-    axes[0][0].set_ylabel("mean final distance [mm]")
+        for a in axes[:, col]:
+            a.grid(True, which="both", alpha=0.3)
+        axes[-1][col].set_xlabel("environment steps (moves)")
+        if rows == 2:
+            axes[1][col].set_ylim(-0.03, 1.03)
+            axes[1][col].set_ylabel(f"share of episodes < {SUCCESS_PLOTTED * MM:g} mm")
+        ax.set_ylabel("mean final distance [mm]")
     fig.tight_layout()
     return fig
+
+
+def _legend(curve: Curve, seeds: int, with_episode: bool) -> str:
+    """:func:`label` (without the episode length when each length has its own panel) and the
+    number of seeds."""
+    name = label(curve) if with_episode else label(replace(curve, episode_steps=MAX_EPISODE_STEPS))
+    count = f"{seeds} seed{'s' if seeds > 1 else ''}"
+    return f"{name[:-1]}, {count})" if name.endswith(")") else f"{name} ({count})"
