@@ -22,6 +22,7 @@ pytestmark = pytest.mark.skipif(
     reason="the rl extra is not installed (pip install -e '.[rl]', or make test-rl)",
 )
 CHILD_TIMEOUT = 600.0  # s; the SB3 checks of every setting, twice, take a few minutes
+TARGETS = 20  # held-out targets of the resume test
 PRELUDE = "import torch, torch._dynamo\nimport json, warnings\nimport numpy as np\nimport envs\n"
 #: SB3's and Gymnasium's advice for the default action space (radians, float64); ``normalize``
 #: follows it.
@@ -146,3 +147,64 @@ def test_sac_on_images_with_a_cnn_policy():
     assert result["cnn"] == ["pixels_left", "pixels_right"]
     assert result["dtype"] == "uint8"
     assert result["first_image_stored"]  # SAC seeds the env as this probe does
+
+
+def test_an_interrupted_run_continues_where_it_stopped(tmp_path):
+    """A run interrupted while evaluating its 2nd checkpoint (its model already saved), then run
+    again: the checkpoints are those of an uninterrupted run, the first two bit for bit (the
+    first kept from the file, the second the reloaded model's), no training step is repeated
+    (the env steps of the second session are the remaining budget and the evaluations), and a
+    finished run is not run again. Later checkpoints differ a little: the random generators and
+    the training env's state are not saved (``envs.studies.rl_runs``)."""
+    result = _child(
+        f"""
+        from pathlib import Path
+        from envs.reach import ReachEnv
+        from envs.studies import rl_comparison, rl_runs
+
+        torch.set_num_threads(1)
+        out, evaluate, step = Path({str(tmp_path)!r}), rl_comparison.evaluate_policy, ReachEnv.step
+        counted = []
+        def counting_step(self, action):
+            counted.append(1)
+            return step(self, action)
+        ReachEnv.step = counting_step
+
+        def interrupt_second(*args, **kwargs):
+            interrupt_second.calls += 1
+            if interrupt_second.calls == 2:
+                raise KeyboardInterrupt
+            return evaluate(*args, **kwargs)
+
+        results = {{}}
+        for method, points in (("sac_her", (100, 200, 400)), ("ppo", (512, 1024, 1536))):
+            spec = rl_runs.RunSpec("RiacsReach-v0", "project", "kinematic", method, "zoo", 4, 0,
+                                   points[-1], points, {TARGETS})
+            whole = rl_runs.run(spec, out / "whole")
+            interrupt_second.calls = 0
+            rl_comparison.evaluate_policy = interrupt_second
+            try:
+                rl_runs.run(spec, out / "cut")
+            except KeyboardInterrupt:
+                pass
+            rl_comparison.evaluate_policy = evaluate
+            counted.clear()
+            resumed = rl_runs.run(spec, out / "cut")
+            second_session = len(counted)
+            counted.clear()
+            again = rl_runs.run(spec, out / "cut")
+            results[method] = {{"whole": [whole.steps, whole.mean_m],
+                               "resumed": [resumed.steps, resumed.mean_m],
+                               "again": again.mean_m, "steps_again": len(counted),
+                               "second_session": second_session}}
+        print(json.dumps(results))
+        """
+    )
+    for method, (first, last) in (("sac_her", (200, 400)), ("ppo", (1024, 1536))):
+        r = result[method]
+        assert r["resumed"][0] == r["whole"][0]  # the same checkpoints
+        assert r["resumed"][1][:2] == r["whole"][1][:2], method  # bit for bit up to the save
+        assert r["second_session"] == (last - first) + 2 * TARGETS * 4  # training + 2 evaluations
+        assert r["again"] == r["resumed"][1] and r["steps_again"] == 0  # finished: not run again
+        # the rest continues the same learning: close to the uninterrupted run, not equal
+        assert r["resumed"][1][2] == pytest.approx(r["whole"][1][2], rel=0.5), method

@@ -5,23 +5,25 @@
     .venv/bin/python scripts/compare_rl.py --env RiacsReach-v0 --sensing render --control servo \\
         --budget 1000 --checkpoints 2 --targets 200 --seeds 0 --out runs/compare_rl/rs
 
-Needs the ``rl`` extra (``pip install -e ".[rl]"``). Writes OUT/curves.jsonl (one line per
-method and seed, appended as each finishes; runs split over several invocations with the same
-OUT add up), and from all of it OUT/table.md and OUT/<env>_<sensing>_<control>.png.
-``--report-only`` rewrites the table and plots from OUT/curves.jsonl without training (no extra
-needed): ``scripts/compare_rl.py --report-only --out docs/compare_rl/project_kinematic``.
+Needs the ``rl`` extra (``pip install -e ".[rl]"``). Every (env, method, variant, episode
+length, seed) is a run with its own folder OUT/runs/<env>_<sensing>_<control>/<method>-<variant>-
+<n>move/seed<k>/ (``envs.studies.rl_runs``): its curve is saved after every checkpoint, SB3 models
+with their replay buffers too, so running the same command again skips the finished runs and
+continues an interrupted one (two processes with the same command share the runs out). From all
+finished runs (and an older OUT/curves.jsonl) it writes OUT/table.md and one plot per env and
+setting, OUT/<env>_<sensing>_<control>.png. ``--report-only`` rewrites them without training (no
+extra needed): ``scripts/compare_rl.py --report-only --out docs/compare_rl/project_kinematic``.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import envs  # noqa: F401  (GL back-end, registration)
 from envs.cli import common as cli
-from envs.reach import REACH_ENV_IDS
-from envs.studies import rl_report
-from envs.studies.rl_comparison import METHODS, Curve, checkpoints, run_method
+from envs.reach import MAX_EPISODE_STEPS, REACH_ENV_IDS
+from envs.studies import rl_report, rl_runs
+from envs.studies.rl_comparison import METHODS, VARIANTS, Curve, checkpoints
 
 TORCH_THREADS = 1  # the machine is shared: one core per run
 
@@ -58,42 +60,66 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     p.add_argument(
         "--targets", type=cli.positive_int, default=1000, help="held-out targets per evaluation"
     )
-    p.add_argument("--out", type=Path, default=Path("runs/compare_rl"))
     p.add_argument(
-        "--report-only", action="store_true", help="table and plots from OUT/curves.jsonl only"
+        "--variants",
+        nargs="+",
+        choices=VARIANTS,
+        default=["zoo"],
+        help="settings of the SB3 methods: zoo (RL Zoo's), g2 (2 gradient steps per env step), "
+        "gamma0.5; each method runs those that apply to it",
     )
+    p.add_argument(
+        "--episode-steps",
+        nargs="+",
+        type=cli.positive_int,
+        default=[MAX_EPISODE_STEPS],
+        help="moves per episode (1: one absolute move per target)",
+    )
+    p.add_argument(
+        "--also-at",
+        nargs="*",
+        type=cli.positive_int,
+        default=[],
+        help="further checkpoints (env steps) beside the log-spaced ones",
+    )
+    p.add_argument(
+        "--table-at",
+        nargs="*",
+        type=cli.positive_int,
+        default=[],
+        help="tabulate at these env steps too (the checkpoint at or below each), beside the end",
+    )
+    p.add_argument("--out", type=Path, default=Path("runs/compare_rl"))
+    p.add_argument("--report-only", action="store_true", help="table and plots only, no runs")
     args = p.parse_args(argv)
     if args.report_only:
-        if not (args.out / "curves.jsonl").is_file():
-            raise SystemExit(f"--report-only: {args.out / 'curves.jsonl'} does not exist")
-        print(rl_report.report(args.out, args.targets))
+        if not rl_report.has_runs(args.out):
+            raise SystemExit(f"--report-only: no finished runs or curves.jsonl in {args.out}")
+        print(rl_report.report(args.out, args.targets, args.table_at))
         return []
     import_torch_first().set_num_threads(TORCH_THREADS)
     args.out.mkdir(parents=True, exist_ok=True)
-    points = checkpoints(args.budget, args.checkpoints)
+    points = sorted(set(checkpoints(args.budget, args.checkpoints)) | set(args.also_at))
+    points = [p for p in points if p <= args.budget]
     setting = {"sensing": args.sensing, "control": args.control}
+    specs = rl_runs.run_list(
+        args.env, setting, args.methods, args.variants, args.episode_steps, args.seeds,
+        args.budget, points, args.targets,
+    )  # fmt: skip
     curves = []
-    for env_id in args.env:
-        for method in args.methods:
-            for seed in args.seeds:
-                curve = run_method(
-                    method,
-                    env_id=env_id,
-                    env_kwargs=setting,
-                    seed=seed,
-                    budget=args.budget,
-                    points=points,
-                    targets=args.targets,
-                )
-                curves.append(curve)
-                with open(args.out / "curves.jsonl", "a") as f:
-                    f.write(json.dumps({"env": env_id, **setting, **curve.to_json()}) + "\n")
-                print(
-                    f"{env_id} {method} seed {seed}: {curve.mean_m[-1] * 1e3:.2f} mm mean final "
-                    f"distance after {curve.steps[-1]} env steps",
-                    flush=True,
-                )
-    print(rl_report.report(args.out, args.targets))
+    for spec in specs:
+        curve = rl_runs.run(spec, args.out)
+        name = f"{spec.env} {spec.method} {spec.variant} {spec.episode_steps}-move seed {spec.seed}"
+        if curve is None:
+            print(f"{name}: run by another process, skipped", flush=True)
+            continue
+        curves.append(curve)
+        print(
+            f"{name}: {curve.mean_m[-1] * 1e3:.2f} mm mean final distance after "
+            f"{curve.steps[-1]} env steps ({curve.train_seconds:.0f} s training)",
+            flush=True,
+        )
+    print(rl_report.report(args.out, args.targets, args.table_at))
     return curves
 
 

@@ -14,7 +14,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -23,8 +23,13 @@ from envs.harness.training import RunConfig, initial_map
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import MAX_EPISODE_STEPS
 
-METHODS = ("map", "sac_her", "sac", "ppo")
+if TYPE_CHECKING:
+    from envs.studies.rl_runs import Store
+
+METHODS = ("map", "sac_her", "sac", "ppo", "sac_pixels")
 THRESHOLDS = (0.010, 0.005, 0.001)  # m: report the steps needed to reach these mean distances
+#: m: success curves, the fraction of held-out episodes whose final distance is below each.
+SUCCESS_THRESHOLDS = (0.005, 0.010, 0.020)
 EVAL_SEED = 20_000  # held-out targets (training seeds are small integers)
 MAP_TRAIN_MOVES = 2  # a training trial: coarse move + one fine move, as envs.harness.training
 #: Stable-Baselines3 settings: RL Zoo's tuned FetchReach (her.yml) values for the off-policy
@@ -53,11 +58,32 @@ PPO_KWARGS: dict[str, Any] = {
     "clip_range": 0.3,
 }
 LEARNING_STARTS, LEARNING_STARTS_FRACTION = 1000, 0.05
+#: One change each to the settings above (``"zoo"``: none), and the methods it applies to:
+#: ``g2`` two gradient steps per env step, ``gamma0.5`` a discount for episodes of a few moves.
+VARIANTS: dict[str, dict[str, Any]] = {
+    "zoo": {},
+    "g2": {"train_freq": 1, "gradient_steps": 2},
+    "gamma0.5": {"gamma": 0.5},
+}
+VARIANT_METHODS: dict[str, tuple[str, ...]] = {
+    "zoo": METHODS,
+    "g2": ("sac_her", "sac", "sac_pixels"),
+    "gamma0.5": ("sac_her", "sac"),
+}
+#: Image-based SAC (``sac_pixels``): both camera images (``obs_mode="pixels"``, no joint angles)
+#: and the goal pixels; one NatureCNN per image shared by actor and critic (SB3 then trains it
+#: through the critic only, as DrQ and SAC-AE do), a smaller batch: CNN gradient steps on a CPU
+#: are costly (docs/decisions.md).
+PIXEL_SAC_KWARGS: dict[str, Any] = {
+    "batch_size": 64,
+    "policy_kwargs": {**SAC_KWARGS["policy_kwargs"], "share_features_extractor": True},
+}
 
 
 @dataclass
 class Curve:
-    """One method and seed: mean and median final distance (m) at each checkpoint."""
+    """One method, variant, episode length and seed: mean and median final distance (m) and the
+    success fractions (keyed by :func:`success_key`) at each checkpoint."""
 
     method: str
     seed: int
@@ -65,14 +91,24 @@ class Curve:
     mean_m: list[float] = field(default_factory=list)
     median_m: list[float] = field(default_factory=list)
     train_seconds: float = 0.0  # wall time spent training (evaluations excluded)
+    variant: str = "zoo"
+    episode_steps: int = MAX_EPISODE_STEPS
+    success: dict[str, list[float]] = field(default_factory=dict)
 
     def add(self, steps: int, final: np.ndarray) -> None:
         self.steps.append(int(steps))
         self.mean_m.append(float(np.mean(final)))
         self.median_m.append(float(np.median(final)))
+        for t in SUCCESS_THRESHOLDS:
+            self.success.setdefault(success_key(t), []).append(float(np.mean(final < t)))
 
     def to_json(self) -> dict[str, Any]:
         return asdict(self)
+
+
+def success_key(threshold: float) -> str:
+    """``"5mm"`` for 0.005 m: the key of :attr:`Curve.success`."""
+    return f"{threshold * 1e3:g}mm"
 
 
 def checkpoints(budget: int, count: int) -> list[int]:
@@ -83,15 +119,19 @@ def checkpoints(budget: int, count: int) -> list[int]:
 
 
 def evaluate_policy(
-    make_env: Callable[[], gym.Env], act: Callable[[dict], np.ndarray], targets: int
+    make_env: Callable[[], gym.Env],
+    act: Callable[[dict], np.ndarray],
+    targets: int,
+    episode_steps: int = MAX_EPISODE_STEPS,
 ) -> np.ndarray:
-    """Final ground-truth distance (m) of ``targets`` held-out episodes, (targets,)."""
+    """Final ground-truth distance (m) of ``targets`` held-out episodes of ``episode_steps``
+    moves, (targets,)."""
     env = make_env()
     env.reset(seed=EVAL_SEED)
     final = np.empty(targets)
     for i in range(targets):
         obs, info = env.reset()
-        for _ in range(MAX_EPISODE_STEPS):
+        for _ in range(episode_steps):
             obs, _, _, _, info = env.step(act(obs))
         final[i] = info["distance"]
     env.close()
@@ -105,14 +145,16 @@ def _distance_now(env: gym.Env) -> float:
     return math.dist(base.data.mocap_pos[0], base.data.site_xpos[site])
 
 
-def evaluate_map(make_env: Callable[[], gym.Env], som, targets: int) -> np.ndarray:
+def evaluate_map(
+    make_env: Callable[[], gym.Env], som, targets: int, episode_steps: int = MAX_EPISODE_STEPS
+) -> np.ndarray:
     """Like :func:`evaluate_policy` for the map: the same targets, one coarse and
-    ``MAX_EPISODE_STEPS - 1`` fine moves per trial."""
+    ``episode_steps - 1`` fine moves per trial."""
     env = make_env()
     env.reset(seed=EVAL_SEED)
     final = np.empty(targets)
     for i in range(targets):
-        run_trial(env, som, fine_moves=MAX_EPISODE_STEPS - 1)
+        run_trial(env, som, fine_moves=episode_steps - 1)
         final[i] = _distance_now(env)
     env.close()
     som.reset()
@@ -120,9 +162,16 @@ def evaluate_map(make_env: Callable[[], gym.Env], som, targets: int) -> np.ndarr
 
 
 def train_map(
-    env_id: str, env_kwargs: dict, seed: int, budget: int, points: list[int], targets: int
+    env_id: str,
+    env_kwargs: dict,
+    seed: int,
+    budget: int,
+    points: list[int],
+    targets: int,
+    episode_steps: int = MAX_EPISODE_STEPS,
 ) -> Curve:
-    """The visuomotor map (``envs.harness.training``'s trial: coarse + one exploring fine move)."""
+    """The visuomotor map (``envs.harness.training``'s trial: coarse + one exploring fine move),
+    evaluated on episodes of ``episode_steps`` moves (its training does not depend on them)."""
 
     def make_env() -> gym.Env:
         return gym.make(env_id, **env_kwargs)
@@ -131,7 +180,7 @@ def train_map(
     env.reset(seed=seed)
     config = RunConfig(env=env_id, seed=seed, trials=max(budget // MAP_TRAIN_MOVES, 1))
     som = initial_map(config, env)
-    curve, steps = Curve("map", seed), 0
+    curve, steps = Curve("map", seed, episode_steps=episode_steps), 0
     for point in points:
         start = time.perf_counter()
         while steps < point:
@@ -139,7 +188,7 @@ def train_map(
             learn_from(som, trial)
             steps += len(trial.commands)
         curve.train_seconds += time.perf_counter() - start
-        curve.add(steps, evaluate_map(make_env, som, targets))
+        curve.add(steps, evaluate_map(make_env, som, targets, episode_steps))
     env.close()
     return curve
 
@@ -152,62 +201,94 @@ def train_sb3(
     budget: int,
     points: list[int],
     targets: int,
+    variant: str = "zoo",
+    episode_steps: int = MAX_EPISODE_STEPS,
+    store: Store | None = None,
 ) -> Curve:
-    """SAC + HER, SAC or PPO on the env with ``normalize=True`` (PPO also under VecNormalize,
-    observations and rewards, as RL Zoo runs it on Reacher)."""
-    from stable_baselines3 import PPO, SAC, HerReplayBuffer
-    from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import VecNormalize
+    """SAC + HER, SAC, PPO or image-based SAC on the env with ``normalize=True`` (PPO also under
+    VecNormalize, observations and rewards, as RL Zoo runs it on Reacher), in episodes of
+    ``episode_steps`` moves.
 
-    kwargs = {**env_kwargs, "normalize": True}
+    With a ``store`` the run is resumable: after training to each checkpoint the model (with
+    its replay buffer or normalisation) is saved, after its evaluation the curve; a run found
+    there continues from its last saved model, with the checkpoints already evaluated kept.
+    """
+    from stable_baselines3.common.env_util import make_vec_env
+
+    kwargs = {**env_kwargs, "normalize": True, "max_episode_steps": episode_steps}
+    if method == "sac_pixels":
+        kwargs["obs_mode"] = "pixels"
 
     def make_env() -> gym.Env:
         return gym.make(env_id, **kwargs)
 
     venv = make_vec_env(env_id, n_envs=1, seed=seed, env_kwargs=kwargs)
-    starts = min(LEARNING_STARTS, int(LEARNING_STARTS_FRACTION * budget))
-    if method == "ppo":
-        venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=PPO_KWARGS["gamma"])
-        model = PPO("MultiInputPolicy", venv, seed=seed, device="cpu", **PPO_KWARGS)
+    resumed = store.resume(method, venv) if store is not None else None
+    if resumed is None:
+        model, venv = build_sb3(method, variant, venv, seed, budget)
+        curve = Curve(method, seed, variant=variant, episode_steps=episode_steps)
     else:
-        her = (
-            {"replay_buffer_class": HerReplayBuffer, "replay_buffer_kwargs": HER_KWARGS}
-            if method == "sac_her"
-            else {}
-        )
-        model = SAC(
-            "MultiInputPolicy",
-            venv,
-            seed=seed,
-            device="cpu",
-            learning_starts=starts,
-            **SAC_KWARGS,
-            **her,
-        )
+        model, venv, curve = resumed
+        venv.seed(seed + model.num_timesteps)  # fresh training targets, not the first ones again
 
     def act(obs: dict) -> np.ndarray:
         if method == "ppo":
             obs = venv.normalize_obs(obs)
         return model.predict(obs, deterministic=True)[0]
 
-    curve = Curve(method, seed)
     for point in points:
+        if curve.steps and point <= curve.steps[-1]:
+            continue  # evaluated before the run was interrupted
         start = time.perf_counter()
         if model.num_timesteps < point:
             model.learn(point - model.num_timesteps, reset_num_timesteps=False)
-        curve.train_seconds += time.perf_counter() - start
-        curve.add(model.num_timesteps, evaluate_policy(make_env, act, targets))
+            curve.train_seconds += time.perf_counter() - start
+            if store is not None:
+                store.save_model(model, venv, curve.train_seconds)
+        curve.add(model.num_timesteps, evaluate_policy(make_env, act, targets, episode_steps))
+        if store is not None:
+            store.save_curve(curve)
     venv.close()
     return curve
 
 
-def run_method(method: str, **kwargs) -> Curve:
-    """Train and evaluate one method and seed (keyword arguments of :func:`train_map`)."""
+def build_sb3(method: str, variant: str, venv, seed: int, budget: int) -> tuple[Any, Any]:
+    """A new SB3 model for ``method`` with ``variant``'s changes, and the vec env it trains on
+    (PPO's wrapped in VecNormalize)."""
+    from stable_baselines3 import PPO, SAC, HerReplayBuffer
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if variant not in VARIANTS or method not in VARIANT_METHODS[variant]:
+        valid = [v for v in VARIANTS if method in VARIANT_METHODS[v]]
+        raise ValueError(f"variant {variant!r} does not apply to {method}; valid: {valid}")
+    change = VARIANTS[variant]
+    if method == "ppo":
+        settings = {**PPO_KWARGS, **change}
+        venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=settings["gamma"])
+        return PPO("MultiInputPolicy", venv, seed=seed, device="cpu", **settings), venv
+    starts = min(LEARNING_STARTS, int(LEARNING_STARTS_FRACTION * budget))
+    extra: dict[str, Any] = {}
+    if method == "sac_her":
+        extra = {"replay_buffer_class": HerReplayBuffer, "replay_buffer_kwargs": HER_KWARGS}
+    elif method == "sac_pixels":
+        extra = {**PIXEL_SAC_KWARGS, "buffer_size": budget}  # images: no larger than needed
+    settings = {**SAC_KWARGS, **extra, **change}
+    model = SAC(
+        "MultiInputPolicy", venv, seed=seed, device="cpu", learning_starts=starts, **settings
+    )
+    return model, venv
+
+
+def run_method(method: str, variant: str = "zoo", store: Store | None = None, **kwargs) -> Curve:
+    """Train and evaluate one method and seed (keyword arguments of :func:`train_map`); SB3
+    methods take a ``variant`` of :data:`VARIANTS` and a ``store`` that makes them resumable."""
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if method == "map":
+        if variant != "zoo":
+            raise ValueError(f"variant {variant!r} does not apply to the map; valid: ['zoo']")
         return train_map(**kwargs)
-    return train_sb3(method, **kwargs)
+    return train_sb3(method, variant=variant, store=store, **kwargs)
 
 
 def steps_to_reach(curves: list[Curve], threshold: float) -> int | None:
