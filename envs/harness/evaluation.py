@@ -4,6 +4,8 @@ A trial stops when a marker is not seen (the controller cannot correct from a po
 see). The arm then stays where it is, so the error after every later move is the error where it
 stopped: those values are carried forward, and every mean, median and percentile counts all
 trials. A trial whose target was not seen makes no move and keeps the error of its start pose.
+On a pose env (which reports ``info["orientation_error"]``) the hand's orientation errors are
+carried forward the same way.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ class Evaluation:
     reach: float  # m
     seconds_per_query: float  # controller time per act() call
     moves_made: np.ndarray | None = None  # (n,) int, moves made before a trial stopped
+    orientation_errors: np.ndarray | None = None  # (n, moves) rad; pose envs only
 
     def __post_init__(self) -> None:
         if self.moves_made is None:
@@ -49,13 +52,14 @@ class Evaluation:
 
     def summary(self) -> dict[str, object]:
         """Per move, over all trials: mean, median and 95th percentile in mm, mean in % of reach,
-        mean, median and 95th percentile in px; the fraction of trials that made each move; the
-        complete trials (count and fraction). JSON-ready."""
+        mean, median and 95th percentile in px; on a pose env also mean, median and 95th
+        percentile of the orientation error in degrees; the fraction of trials that made each
+        move; the complete trials (count and fraction). JSON-ready."""
         mm = self.distances * MM_PER_M
         px = self.pixel_errors
         mean_m = self.distances.mean(axis=0)
         made = self.moves_made[:, None] > np.arange(self.moves)  # (n, moves)
-        return {
+        summary = {
             "trials": len(self.distances),
             "complete_trials": int(self.complete.sum()),
             "complete_fraction": round(float(self.complete.mean()), 5),
@@ -67,8 +71,14 @@ class Evaluation:
             "mean_px": px.mean(axis=0).round(4).tolist(),
             "median_px": np.median(px, axis=0).round(4).tolist(),
             "p95_px": np.percentile(px, PERCENTILE, axis=0).round(4).tolist(),
-            "microseconds_per_query": round(self.seconds_per_query * 1e6, 2),
         }
+        if self.orientation_errors is not None:
+            deg = np.degrees(self.orientation_errors)
+            summary["mean_deg"] = deg.mean(axis=0).round(5).tolist()
+            summary["median_deg"] = np.median(deg, axis=0).round(5).tolist()
+            summary["p95_deg"] = np.percentile(deg, PERCENTILE, axis=0).round(5).tolist()
+        summary["microseconds_per_query"] = round(self.seconds_per_query * 1e6, 2)
+        return summary
 
 
 class _TimedController(Controller):
@@ -104,6 +114,14 @@ def carried_forward(trial: Trial, moves: int) -> tuple[np.ndarray, np.ndarray, n
     return np.take(distances, last), np.take(pixels, last), np.asarray(ended, dtype=float)
 
 
+def carried_orientation(trial: Trial, moves: int) -> np.ndarray:
+    """Orientation errors (moves,) rad after each move of a pose-env trial, carried forward
+    from where it stopped as :func:`carried_forward` carries the distances."""
+    errors = [trial.start_orientation_error, *trial.orientation_errors]
+    made = len(trial.orientation_errors)
+    return np.take(errors, [min(k + 1, made) for k in range(moves)])
+
+
 def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> Evaluation:
     """Run ``trials`` trials (targets from the env's own seeded generator; the caller seeds it
     with ``env.reset(seed=...)``) without learning."""
@@ -113,12 +131,17 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
     targets = np.zeros((trials, 3))
     reached = np.zeros((trials, 3))
     made = np.zeros(trials, dtype=int)
+    orientation = np.zeros((trials, moves))
+    pose = False  # the env reports the hand's orientation
     timed = _TimedController(controller)
     for i in range(trials):
         trial = run_trial(env, timed, fine_moves)
         distances[i], pixels[i], reached[i] = carried_forward(trial, moves)
         targets[i] = trial.target_pos
         made[i] = len(trial.distances)
+        if np.isfinite(trial.start_orientation_error):
+            pose = True
+            orientation[i] = carried_orientation(trial, moves)
     return Evaluation(
         distances,
         pixels,
@@ -127,4 +150,5 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
         env.unwrapped.reach,
         timed.seconds / max(timed.calls, 1),
         made,
+        orientation if pose else None,
     )
