@@ -172,7 +172,7 @@ def stored_kind(path: str | os.PathLike) -> str | None:
     try:
         with np.load(path, allow_pickle=False) as archive:
             return str(archive[_KIND])
-    except Exception:  # noqa: BLE001 - any unreadable file: load_npz gives the reason
+    except Exception:
         return None
 
 

@@ -31,9 +31,9 @@ from tqdm import tqdm
 import envs  # noqa: F401  (registers the envs)
 from envs import sizes
 from envs.cli import common as cli
+from envs.grasp import GRASP_ENV_IDS
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
-from envs.grasp import GRASP_ENV_IDS
 from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 from learners.persistence import writing
 from learners.som.config import PROTOCOLS, RULES

@@ -87,7 +87,9 @@ def load_map(path: str | os.PathLike) -> Map:
     return _kind(path)[1].load(path)
 
 
-def write_unit(path: str | os.PathLike, som: Map, run: dict[str, Any], sim_state: np.ndarray) -> Path:
+def write_unit(
+    path: str | os.PathLike, som: Map, run: dict[str, Any], sim_state: np.ndarray
+) -> Path:
     """Write the map, ``run`` (JSON-able) and the simulation state to ``path`` atomically."""
     config, arrays = som.state()
     kind = KIND if isinstance(som, VisuomotorSOM) else hierarchical.KIND
