@@ -59,7 +59,7 @@ def test_summaries_give_degrees_for_pose_envs_only():
     pose = Evaluation(reach.distances, reach.pixel_errors, reach.target_pos, reach.reached, 1.0,
                       1e-6, orientation_errors=radians)  # fmt: skip
     summary = pose.summary()
-    assert list(summary)[:-1] == REACH_KEYS[:-1] + ["mean_deg", "median_deg", "p95_deg"]
+    assert list(summary)[:-1] == [*REACH_KEYS[:-1], "mean_deg", "median_deg", "p95_deg"]
     np.testing.assert_allclose(summary["mean_deg"], radians.mean(axis=0) * 180 / np.pi, atol=1e-5)
     np.testing.assert_allclose(
         summary["median_deg"], np.median(radians, axis=0) * 180 / np.pi, atol=1e-5
@@ -95,7 +95,7 @@ def test_reach_runs_and_their_sweep_cells_keep_their_names():
 def test_run_configs_refuse_options_of_the_other_map():
     with pytest.raises(ValueError, match="orientation_lattice is for the pose envs"):
         RunConfig(orientation_lattice=(2, 2))
-    with pytest.raises(ValueError, match="protocol are options of the reach map"):
+    with pytest.raises(ValueError, match=r"option\(s\) protocol do not apply"):
         RunConfig(env="PumaGrasp-v0", protocol="brause")
     config = RunConfig(env="PumaGrasp-v0", lattice=(4, 4, 3)).map_config()
     assert config.position_lattice == (4, 4, 3) and config.orientation_lattice == (2, 2, 2)

@@ -121,6 +121,18 @@ def make_controller(spec: str, env, seed: int = 0) -> Controller:
     raise ValueError(f"unknown controller {spec!r}; valid: {SPECS}")
 
 
+def check_task(specs: list[str], pose: bool) -> None:
+    """Exit with one line if a named controller of ``specs`` belongs to the other task (the
+    pose floors on a reach env, the reach baselines on a pose env)."""
+    from envs.cli.common import fail
+
+    for spec in specs:
+        if pose and spec in NAMED:
+            fail(f"{spec} is a reach controller; on PumaGrasp-v0 use {POSE_SPECS}")
+        if not pose and spec in POSE_NAMED:
+            fail(f"{spec} needs the pose env PumaGrasp-v0; on a reach env use {SPECS}")
+
+
 def make_pose_floor(spec: str, env) -> Controller:
     """``pose_ik`` (exact pose IK) or ``pose_jacobian`` (damped least squares on the pose) from
     the object's pose triangulated with the env's nominal cameras; ValueError on a reach env."""

@@ -23,7 +23,14 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import POSE_SPECS, SPECS, Ticking, make_controller, run_folder
+from envs.cli.controllers import (
+    POSE_SPECS,
+    SPECS,
+    Ticking,
+    check_task,
+    make_controller,
+    run_folder,
+)
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness import plots
 from envs.harness.checkpoint import read_identity
@@ -99,6 +106,7 @@ def main(argv: list[str] | None = None) -> dict:
     out = check_writable(args.out or (args.run / "eval" if args.run else Path("runs/eval")))
     specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
     pose = env_id in GRASP_ENV_IDS
+    check_task(specs, pose)
     plotted = not args.no_plots and specs[0].endswith(".npz") and not pose
     metrics = None  # read before any work, so that a damaged log stops nothing half-way
     if plotted and args.run is not None and (args.run / METRICS_FILE).is_file():

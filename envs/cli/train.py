@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> Path:
                 )
             trainer = Trainer.resume(args.out, args.trials if "trials" in given else None)
         else:
-            config = RunConfig(
+            config = pose_checked(
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
                 trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
                 protocol=args.protocol, width=args.image_size[0], height=args.image_size[1],
@@ -138,6 +138,17 @@ def main(argv: list[str] | None = None) -> Path:
             trainer.close()
     print(f"trained {trainer.trial} trials; map in {args.out / MAP_FILE}")
     return args.out
+
+
+def pose_checked(**options: object) -> RunConfig:
+    """``RunConfig(**options)``; on a pose env a reach-map option is a one-line user error."""
+    try:
+        return RunConfig(**options)
+    except ValueError as exc:
+        if options["env"] not in GRASP_ENV_IDS:
+            raise
+        cli.fail(str(exc))
+        raise  # not reached: fail exits
 
 
 def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:

@@ -19,7 +19,14 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import NAMED, POSE_NAMED, SPECS, controller_spec, make_controller
+from envs.cli.controllers import (
+    NAMED,
+    POSE_NAMED,
+    SPECS,
+    check_task,
+    controller_spec,
+    make_controller,
+)
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness.film import VIDEO_FPS, TrialFilm, side_by_side
 from envs.harness.grasp_film import GraspFilm
@@ -54,6 +61,7 @@ def main(argv: list[str] | None = None) -> Path:
     check_writable(args.out.parent)  # a read-only folder or a full disk, before any work
 
     specs = [args.controller] + ([args.compare] if args.compare else [])
+    check_task(specs, args.env in GRASP_ENV_IDS)
     runs = []  # (env, controller, film) per controller; the same seed gives the same targets
     pose = args.env in GRASP_ENV_IDS
     for spec in specs:

@@ -124,8 +124,8 @@ class RunConfig:
             changed = [k for k in REACH_ONLY if getattr(self, k) != getattr(_MAP, k)]
             if changed:
                 raise ValueError(
-                    f"{', '.join(changed)} are options of the reach map; {self.env}'s "
-                    "hierarchical map has none (leave them out)"
+                    f"the reach map's option(s) {', '.join(changed)} do not apply to "
+                    f"{self.env}'s hierarchical map; leave them out"
                 )
         elif self.orientation_lattice is not None:
             raise ValueError(
