@@ -25,7 +25,8 @@ class Controller(ABC):
     """Camera coordinates in, absolute joint commands (radians) out.
 
     The trial loop (``envs.harness.trials.run_trial``) relies on ``act``, ``reset`` and
-    ``protocol``; ``act_batch`` has a row-by-row default.
+    ``protocol`` (and ``recover``, ``recovery_move``: by default no recovery); ``act_batch`` has
+    a row-by-row default.
     """
 
     @property
@@ -41,6 +42,18 @@ class Controller(ABC):
 
         ``explore=True`` asks for an exploratory fine move (training); a controller that does
         not explore ignores it."""
+
+    @property
+    def recover(self) -> bool:
+        """Whether the trial loop asks for :meth:`recovery_move` when a camera loses the marker
+        after a move, instead of stopping the trial: False unless a controller says otherwise."""
+        return False
+
+    def recovery_move(self, u: np.ndarray, attempt: int) -> np.ndarray | None:
+        """Command (J,) rad of recovery attempt ``attempt`` (0, 1, ...) for target pixels ``u``
+        after a move whose marker a camera did not see, or None when no attempt is left; the
+        next ``act(u, v)`` corrects from where this command took the arm (v sensed there)."""
+        return None
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (N, 4) -> (N, J)."""

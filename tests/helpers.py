@@ -6,6 +6,8 @@
   for the rendered cameras.
 - :data:`SCRIPTS`, :func:`run_script` and :func:`one_line_error`: the command-line programs of the
   checkout run in a child process, and the one-line user error they must print.
+- :func:`forbid_the_exact_model`: kinematics, IK and the camera model raise if touched, for the
+  tests that a learner (training, recovery) uses only what a robot knows.
 """
 
 from __future__ import annotations
@@ -74,3 +76,27 @@ def assert_drawn_png(path: Path) -> None:
     assert image.ndim == 3 and min(image.shape[:2]) > 100, image.shape
     colours = np.unique(image.reshape(-1, image.shape[2]), axis=0)
     assert len(colours) > 2, f"{path} is blank"
+
+
+def forbid_the_exact_model(monkeypatch) -> None:
+    """Make the kinematics, the IKs and the stereo rig's camera model raise AssertionError if
+    anything calls them (``monkeypatch`` undoes it after the test). Sensing renders the scene
+    and does not use them."""
+    import models.arms
+    import models.puma560
+    import models.puma560.inverse
+    import models.puma560.kinematics
+    import models.riacs.kinematics
+    from envs.sensing.stereo import StereoRig
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the learner used the exact model")
+
+    for module, name in [(models.arms, "arm_kinematics"), (models.puma560, "wrist_ik"),
+                         (models.puma560.kinematics, "wrist_ik"),
+                         (models.puma560.kinematics, "wrist_center"),
+                         (models.puma560.inverse, "pose_ik"),
+                         (models.riacs.kinematics, "robot3dinv"),
+                         (models.riacs.kinematics, "robot3df"),
+                         (StereoRig, "project"), (StereoRig, "project_with_depth")]:  # fmt: skip
+        monkeypatch.setattr(module, name, forbidden)

@@ -25,7 +25,7 @@ IMAGE = np.array([320.0, 240.0, 320.0, 240.0])  # px
 KERNELS = ["numpy", *(["numba"] if kernels.available() else [])]
 #: Every option evaluate.py or adapt.py changes on a loaded map, each to a value other than the
 #: trained map's (defaults: protocol "mrs", abar "local-fit", refine True).
-CHANGES = [{"protocol": "brause"}, {"abar": "average"}, {"refine": False}]
+CHANGES = [{"protocol": "brause"}, {"abar": "average"}, {"refine": False}, {"recover": True}]
 
 
 def _inputs(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -53,13 +53,14 @@ def _moves(som: VisuomotorSOM) -> np.ndarray:
 
 
 def test_evaluate_changes_only_the_options_checked_here():
-    args = argparse.Namespace(protocol="brause", no_refine=True, abar="local-fit")
+    args = argparse.Namespace(protocol="brause", no_refine=True, abar="local-fit", recover=True)
     changed = evaluate.som_changes(args)
-    assert changed == {"protocol": "brause", "refine": False, "abar": "local-fit"}
+    assert changed == {"protocol": "brause", "refine": False, "abar": "local-fit", "recover": True}
     assert set(changed) == {k for change in CHANGES for k in change}
-    args = argparse.Namespace(protocol=None, no_refine=True, abar=None)
+    args = argparse.Namespace(protocol=None, no_refine=True, abar=None, recover=False)
     assert evaluate.som_changes(args) == {"refine": False, "abar": "average"}
-    assert evaluate.som_changes(argparse.Namespace(protocol=None, no_refine=False, abar=None)) == {}
+    none = argparse.Namespace(protocol=None, no_refine=False, abar=None, recover=False)
+    assert evaluate.som_changes(none) == {}
 
 
 @pytest.mark.parametrize("kernel", KERNELS)
@@ -119,7 +120,7 @@ def _everything_else() -> SOMConfig:
         lattice=(5, 4), input_dim=3, rule="brause", averaging="winner", refine=False,
         abar="average", t_max=77, eps=(0.7, 0.07), sigma=(1.5, 0.2), eps_out=(0.3, 0.03),
         sigma_out=(2.2, 0.3), explore=(0.0, 0.0), gamma=(0.9, 0.2), a_init=0.25, min_dv=0.5,
-        protocol="brause", continual=Continual(fast=0.05, trigger=2.0, readapt=50),
+        protocol="brause", continual=Continual(fast=0.05, trigger=2.0, readapt=50), recover=True,
     )  # fmt: skip
 
 

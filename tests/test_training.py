@@ -19,6 +19,8 @@ from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
 from learners.persistence import CheckpointError
 from learners.som.controller import VisuomotorSOM
 
+from helpers import forbid_the_exact_model
+
 SMALL = RunConfig(trials=60, lattice=(4, 3, 2), eval_every=20, eval_trials=10, seed=3)
 
 
@@ -138,23 +140,7 @@ def test_a_used_folder_is_refused_unless_forced_and_a_held_one_always(uninterrup
 def test_the_map_learns_without_the_exact_model(monkeypatch, tmp_path):
     """What a robot knows: joint ranges, the ``ready`` keyframe, images. Kinematics, IK and the
     camera model raise if touched, and training (with rendered cameras) still runs."""
-    import models.arms
-    import models.puma560
-    import models.puma560.inverse
-    import models.puma560.kinematics
-    import models.riacs.kinematics
-    from envs.sensing.stereo import StereoRig
-
-    def forbidden(*args, **kwargs):
-        raise AssertionError("the learner used the exact model")
-
-    for module, name in [(models.arms, "arm_kinematics"), (models.puma560, "wrist_ik"),
-                         (models.puma560.kinematics, "wrist_ik"),
-                         (models.puma560.kinematics, "wrist_center"),
-                         (models.puma560.inverse, "pose_ik"),
-                         (models.riacs.kinematics, "robot3dinv"),
-                         (StereoRig, "project"), (StereoRig, "project_with_depth")]:  # fmt: skip
-        monkeypatch.setattr(module, name, forbidden)
+    forbid_the_exact_model(monkeypatch)
     monkeypatch.setattr(training, "INIT_TARGETS", 20)  # fewer renders: a quicker test
     config = RunConfig(env="PumaReach-v0", sensing="render", trials=12, lattice=(3, 2, 2),
                        eval_every=12, eval_trials=3, seed=1)  # fmt: skip

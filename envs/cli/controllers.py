@@ -82,6 +82,13 @@ class Ticking(Controller):
     def protocol(self) -> str:
         return self.inner.protocol
 
+    @property
+    def recover(self) -> bool:
+        return self.inner.recover
+
+    def recovery_move(self, u, attempt):
+        return self.inner.recovery_move(u, attempt)
+
     def act(self, u, v=None, explore=False):
         return self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
 

@@ -82,6 +82,12 @@ def main(argv: list[str] | None = None) -> dict:
         choices=ABAR,
         help="Ā of a SOM's fine moves (default: the map's; --no-refine: average)",
     )
+    p.add_argument(
+        "--recover",
+        action="store_true",
+        help="a SOM recovers when a camera loses the marker (detour moves, counted) instead "
+        "of stopping the trial as MRS's loop does",
+    )
     args = p.parse_args(argv)
     if (args.run is None) == (args.controller is None):
         p.error("give either --run DIR or --controller SPEC")
@@ -148,6 +154,7 @@ def som_name(som: VisuomotorSOM) -> str:
     name = f"som {som.protocol}"
     if som.protocol == "mrs":
         name += "+fit" * (som.abar == "local-fit") + "+refine" * som.refine
+        name += "+recover" * som.recover
     return name
 
 
@@ -158,7 +165,8 @@ def evaluate_with_bar(env, controller, name: str, targets: int, fine_moves: int)
 
 
 def som_changes(args: argparse.Namespace) -> dict[str, object]:
-    """The map options ``--protocol``, ``--no-refine`` and ``--abar`` change on a loaded map."""
+    """The map options ``--protocol``, ``--no-refine``, ``--abar`` and ``--recover`` change on a
+    loaded map."""
     changes: dict[str, object] = {}
     if args.protocol is not None:
         changes["protocol"] = args.protocol
@@ -167,6 +175,8 @@ def som_changes(args: argparse.Namespace) -> dict[str, object]:
     abar = args.abar or ("average" if args.no_refine else None)
     if abar is not None:
         changes["abar"] = abar
+    if args.recover:
+        changes["recover"] = True
     return changes
 
 
@@ -185,6 +195,12 @@ def format_table(rows: list[dict]) -> str:
         line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
         line += f"{r['microseconds_per_query']:>10.1f}{r['complete_fraction'] * 100:>9.1f}%"
         lines.append(line)
+    for r in rows:
+        if "recovered_trials" in r:
+            lines.append(
+                f"{r['controller']}: {r['recovered_trials']} trials recovered from an unseen "
+                f"marker, {r['mean_recovery_moves']:.4f} extra moves per trial"
+            )
     lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
     return "\n".join(lines)
 

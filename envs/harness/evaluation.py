@@ -1,9 +1,10 @@
 """Held-out evaluation of a controller on a reach env: errors after each move, every trial counted.
 
 A trial stops when a marker is not seen (the controller cannot correct from a position it did not
-see). The arm then stays where it is, so the error after every later move is the error where it
-stopped: those values are carried forward, and every mean, median and percentile counts all
-trials. A trial whose target was not seen makes no move and keeps the error of its start pose.
+see), unless the controller recovers (``Controller.recover``; its extra moves are counted). The
+error after every later move of a stopped trial is the error where it stopped: those values are
+carried forward, and every mean, median and percentile counts all trials. A trial whose
+target was not seen makes no move and keeps the error of its start pose.
 On a pose env (which reports ``info["orientation_error"]``) the hand's orientation errors are
 carried forward the same way.
 """
@@ -35,6 +36,9 @@ class Evaluation:
     reach: float  # m
     seconds_per_query: float  # controller time per act() call
     moves_made: np.ndarray | None = None  # (n,) int, moves made before a trial stopped
+    #: (n,) int, recovery moves of each trial; None: the controller did not recover (the
+    #: summary then has no recovery entries)
+    recovery_moves: np.ndarray | None = None
     orientation_errors: np.ndarray | None = None  # (n, moves) rad; pose envs only
 
     def __post_init__(self) -> None:
@@ -54,12 +58,13 @@ class Evaluation:
         """Per move, over all trials: mean, median and 95th percentile in mm, mean in % of reach,
         mean, median and 95th percentile in px; on a pose env also mean, median and 95th
         percentile of the orientation error in degrees; the fraction of trials that made each
-        move; the complete trials (count and fraction). JSON-ready."""
+        move; the complete trials (count and fraction); with recovery, the trials that made
+        recovery moves and the mean recovery moves per trial. JSON-ready."""
         mm = self.distances * MM_PER_M
         px = self.pixel_errors
         mean_m = self.distances.mean(axis=0)
         made = self.moves_made[:, None] > np.arange(self.moves)  # (n, moves)
-        summary = {
+        out = {
             "trials": len(self.distances),
             "complete_trials": int(self.complete.sum()),
             "complete_fraction": round(float(self.complete.mean()), 5),
@@ -74,11 +79,14 @@ class Evaluation:
         }
         if self.orientation_errors is not None:
             deg = np.degrees(self.orientation_errors)
-            summary["mean_deg"] = deg.mean(axis=0).round(5).tolist()
-            summary["median_deg"] = np.median(deg, axis=0).round(5).tolist()
-            summary["p95_deg"] = np.percentile(deg, PERCENTILE, axis=0).round(5).tolist()
-        summary["microseconds_per_query"] = round(self.seconds_per_query * 1e6, 2)
-        return summary
+            out["mean_deg"] = deg.mean(axis=0).round(5).tolist()
+            out["median_deg"] = np.median(deg, axis=0).round(5).tolist()
+            out["p95_deg"] = np.percentile(deg, PERCENTILE, axis=0).round(5).tolist()
+        out["microseconds_per_query"] = round(self.seconds_per_query * 1e6, 2)
+        if self.recovery_moves is not None:
+            out["recovered_trials"] = int((self.recovery_moves > 0).sum())
+            out["mean_recovery_moves"] = round(float(self.recovery_moves.mean()), 5)
+        return out
 
 
 class _TimedController(Controller):
@@ -90,6 +98,13 @@ class _TimedController(Controller):
     @property
     def protocol(self) -> str:
         return self.inner.protocol
+
+    @property
+    def recover(self) -> bool:
+        return self.inner.recover
+
+    def recovery_move(self, u, attempt):
+        return self.inner.recovery_move(u, attempt)
 
     def act(self, u, v=None, explore=False):
         start = time.perf_counter()
@@ -131,6 +146,7 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
     targets = np.zeros((trials, 3))
     reached = np.zeros((trials, 3))
     made = np.zeros(trials, dtype=int)
+    recoveries = np.zeros(trials, dtype=int)
     orientation = np.zeros((trials, moves))
     pose = False  # the env reports the hand's orientation
     timed = _TimedController(controller)
@@ -139,6 +155,7 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
         distances[i], pixels[i], reached[i] = carried_forward(trial, moves)
         targets[i] = trial.target_pos
         made[i] = len(trial.distances)
+        recoveries[i] = trial.recovery_moves
         if np.isfinite(trial.start_orientation_error):
             pose = True
             orientation[i] = carried_orientation(trial, moves)
@@ -150,5 +167,6 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
         env.unwrapped.reach,
         timed.seconds / max(timed.calls, 1),
         made,
+        recoveries if controller.recover else None,
         orientation if pose else None,
     )

@@ -6,6 +6,12 @@ the cameras see v1; and so on. A learner learns from (u, θ0, v0, θ1, v1).
 
 Brause's protocol (§3, ``protocol="brause"``) senses the same positions (x = u, x_I = v0,
 x_F = v1), but his fine move (3.7) does not use x_I: a trial goes on when a marker is not seen.
+
+Recovery (a controller whose ``recover`` is True, e.g. ``VisuomotorSOM(recover=True)``): under
+"mrs", when a camera loses the marker after a move that is not the last, the loop asks the
+controller for recovery moves until both cameras see the marker again, and the next move
+corrects from there. Recovery moves are extra: they are counted in ``Trial.recovery_moves``,
+and the lists of a trial hold the coarse and fine moves only.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ class Trial:
     start_distance: float = float("nan")  # m, ground truth before the coarse move
     start_pixel_error: float = float("nan")  # px, before the coarse move
     start_pos: np.ndarray | None = None  # (3,) world m, the sensed point before the coarse move
+    recovery_moves: int = 0  # extra moves made to see the marker again (controller.recover)
     #: rad, ground truth after move k, when the env reports the hand's orientation (pose envs)
     orientation_errors: list[float] = field(default_factory=list)
     start_orientation_error: float = float("nan")  # rad, before the coarse move (pose envs)
@@ -67,8 +74,9 @@ def run_trial(
         protocol: "mrs" or "brause"; None: the controller's ``protocol``.
     Returns:
         the :class:`Trial`. If a marker is not visible, sensed pixels are NaN; under "mrs" the
-        trial stops there (a controller cannot correct from a position it did not see), under
-        "brause" it goes on (the fine command (3.7) does not depend on what was sensed).
+        trial stops there (a controller cannot correct from a position it did not see) unless
+        the controller recovers (its recovery moves found a pose where the marker is seen),
+        under "brause" it goes on (the fine command (3.7) does not depend on what was sensed).
     """
     protocol = controller.protocol if protocol is None else protocol
     if protocol not in PROTOCOLS:
@@ -107,8 +115,27 @@ def run_trial(
         if on_move is not None:
             on_move(k, trial)
         if protocol == "mrs" and not np.all(np.isfinite(sensed)):
-            break
+            if k == fine_moves or not controller.recover:
+                break
+            sensed = _recover(env, controller, trial)
+            if sensed is None:
+                break
     return trial
+
+
+def _recover(env, controller: Controller, trial: Trial) -> np.ndarray | None:
+    """Recovery moves until both cameras see the marker: the pixels (4,) sensed there, or None
+    when the controller has no attempt left."""
+    base = env.unwrapped
+    attempt = 0
+    while (command := controller.recovery_move(trial.target_px, attempt)) is not None:
+        env.step(command)
+        trial.recovery_moves += 1
+        sensed = base.sensed_effector()
+        if np.all(np.isfinite(sensed)):
+            return sensed
+        attempt += 1
+    return None
 
 
 def learn_from(controller: Learner, trial: Trial) -> bool:

@@ -88,6 +88,9 @@ class SOMConfig:
         protocol: one of ``PROTOCOLS``: MRS's loop or Brause's own.
         continual: a :class:`~learners.som.schedules.Continual` to keep re-adapting after t_max
             when the sensed error rises (None: the standard schedules, floors from t_max on).
+        recover: when a camera loses the marker after a move, make recovery moves (a detour
+            the map has learned, ``learners/som/recovery.py``) and go on, instead of stopping
+            the trial (MRS's loop stops; not in the papers). Protocol "mrs" only.
     Raises:
         ValueError: an option of the wrong type, an unknown choice (the valid ones named), a
             size or count below its minimum, or a schedule out of its range.
@@ -110,6 +113,7 @@ class SOMConfig:
     min_dv: float = DEFAULT_MIN_DV
     protocol: str = "mrs"
     continual: Continual | None = None
+    recover: bool = False
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -132,8 +136,11 @@ class SOMConfig:
                 f"{MAX_NEURONS:,} fit in memory (a 40x40x40 lattice has 64,000)"
             )
         put("lattice", lattice)
-        if not isinstance(self.refine, bool):
-            raise ValueError(f"SOMConfig.refine must be True or False, got {self.refine!r}")
+        for name in ("refine", "recover"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(
+                    f"SOMConfig.{name} must be True or False, got {getattr(self, name)!r}"
+                )
         for name, kind, least in (
             ("input_dim", int, 1), ("t_max", int, 1), ("a_init", float, 0), ("min_dv", float, 0),
         ):  # fmt: skip
@@ -200,6 +207,8 @@ class SOMConfig:
         }
         if self.continual is not None:
             out["continual"] = asdict(self.continual)
+        if self.recover:  # absent when off: maps without it keep their files
+            out["recover"] = True
         return out
 
     @classmethod
@@ -213,12 +222,12 @@ class SOMConfig:
         types: dict[str, type | tuple[type, ...]] = {
             "lattice": list, "input_dim": int, "rule": str, "averaging": str, "refine": bool,
             "abar": str, "t_max": int, "schedules": dict, "a_init": (int, float),
-            "min_dv": (int, float), "protocol": str, "continual": dict,
+            "min_dv": (int, float), "protocol": str, "continual": dict, "recover": bool,
         }  # fmt: skip
         options: dict[str, Any] = {}
         for key, kind in types.items():
             if key not in entries:
-                if key in _ADDED_LATER or key == "continual":
+                if key in _ADDED_LATER or key in ("continual", "recover"):
                     continue
                 raise ValueError(f"config entry {key!r} is missing")
             value = entries[key]

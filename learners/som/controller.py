@@ -70,6 +70,11 @@ Exploration: Δθ of a fine move is Ā(u − v0), which stays inside the range o
 Widrow-Hoff step alone never learns the other directions (with A = 0 it learns nothing). Fine
 moves made with ``act(u, v, explore=True)`` (training) add N(0, explore(t)²) joint noise.
 
+Recovery (``recover=True``, not in the papers): when a camera loses the marker after a move,
+the trial loop asks for recovery moves (``recovery_move``): detours to poses the map learned,
+nearer the middle of what it has seen, until both cameras see the marker; the fine moves then
+correct from there (``learners/som/recovery.py``). Off by default: MRS's loop stops the trial.
+
 Options are one :class:`~learners.som.config.SOMConfig`. The protocol is a strategy of
 ``learners/som/protocols.py`` chosen once when the map is built; :meth:`VisuomotorSOM.with_config`
 builds a map with other options and the same learned state.
@@ -89,7 +94,7 @@ import numpy as np
 from learners.base import Array, Learner, check_pixels
 from learners.guards import InputBox, check_finite
 from learners.persistence import CheckpointError, load_npz, save_npz
-from learners.som import kernels
+from learners.som import kernels, recovery
 from learners.som.compiled_path import PRUNED_SEARCH_MIN, CompiledPath
 from learners.som.config import (
     ABAR,
@@ -227,6 +232,7 @@ class VisuomotorSOM(CompiledPath, Learner):
     min_dv = _option("min_dv")
     protocol = _option("protocol")  # the learner interface's protocol: the strategy chosen from it
     continual = _option("continual")
+    recover = _option("recover")  # the learner interface's recover: ask for recovery_move
 
     def __init__(
         self,
@@ -440,6 +446,8 @@ class VisuomotorSOM(CompiledPath, Learner):
         self._abar: np.ndarray | None = None  # (J, D) averaged A for the fine moves
         self._v: np.ndarray | None = None  # position sensed before the last fine command
         self._cmd_before: np.ndarray | None = None  # command before the last fine one
+        self._seen_cmd: np.ndarray | None = None  # with recover: last command whose marker ...
+        self._seen_v: np.ndarray | None = None  # ... both cameras saw, and where
 
     def _vector(self, name: str, x: np.ndarray) -> np.ndarray:
         """x as a finite (D,) float array in the input box, else ValueError saying what is
@@ -504,9 +512,28 @@ class VisuomotorSOM(CompiledPath, Learner):
             ValueError: u or v of the wrong shape or not finite, or a fine move without a coarse
                 one since the last ``reset()``; the map and its memory are then unchanged.
         """
+        if self._config.recover:
+            if v is None:
+                self._seen_cmd = self._seen_v = None
+            else:
+                recovery.remember_seen(self, v)
         if v is None:
             return self._protocol.coarse(self, u)
         return self._protocol.fine(self, u, v, explore)
+
+    def recovery_move(self, u: np.ndarray, attempt: int) -> np.ndarray | None:
+        """With ``recover``: the command (J,) of detour ``attempt`` (0, 1, ...) for target u
+        after a move whose marker a camera did not see (``learners/som/recovery.py``), or None
+        when no attempt is left (or ``recover`` is off); the next ``act(u, v)`` corrects from
+        the detour.
+
+        Raises:
+            ValueError: u of the wrong shape or not finite, or no coarse move since the last
+                ``reset()``.
+        """
+        if not self.recover:
+            return None
+        return recovery.recovery_move(self, u, attempt)
 
     def _local_abar(self, u: np.ndarray) -> np.ndarray:
         """Ā (J, D) of the local fit at target u (``learners/som/local_fit.py``)."""
@@ -586,7 +613,7 @@ class VisuomotorSOM(CompiledPath, Learner):
         return True
 
     # ----------------------------------------------------------------------------- persistence
-    _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before")
+    _MEMORY = ("_u", "_cmd", "_abar", "_v", "_cmd_before", "_seen_cmd", "_seen_v")
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write everything needed to continue bit-identically to one ``.npz``, atomically:
@@ -659,7 +686,8 @@ class VisuomotorSOM(CompiledPath, Learner):
                 som._monitor = ErrorMonitor(som.monitor.params, entries["continual_state"])
             som.rng = np.random.Generator(bit_generator)
             J, D = som.n_joints, som.input_dim
-            shapes = {"_u": (D,), "_cmd": (J,), "_abar": (J, D), "_v": (D,), "_cmd_before": (J,)}
+            shapes = {"_u": (D,), "_cmd": (J,), "_abar": (J, D), "_v": (D,), "_cmd_before": (J,),
+                      "_seen_cmd": (J,), "_seen_v": (D,)}  # fmt: skip
             for k in cls._MEMORY:
                 memory = arrays.get(k)
                 if memory is not None and (memory.shape != shapes[k] or memory.dtype != float):
