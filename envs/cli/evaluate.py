@@ -127,6 +127,11 @@ def main(argv: list[str] | None = None) -> dict:
             controller = controller.with_config(**som_changes(args))
             name = som_name(controller)
         elif isinstance(controller, HierarchicalSOM):
+            if som_changes(args):
+                cli.fail(
+                    "--protocol, --no-refine, --abar and --recover change the reach map; the "
+                    "hierarchical map of PumaGrasp-v0 has none of them"
+                )
             name = "hierarchical som"
         env.reset(seed=args.seed)  # the same held-out targets for every controller
         result = evaluate_with_bar(env, controller, name, args.targets, args.fine_moves)
