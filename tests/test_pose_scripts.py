@@ -108,3 +108,9 @@ def test_grasp_learning_plots_the_tables_means_beside_the_published_rows(tmp_pat
     grasp_learning.main(["--targets", "3", "--trials-per-leaf", "0.01", "--out", str(out)])
     assert "| PoseIK (floor) |" in capsys.readouterr().out
     assert_drawn_png(out)
+
+
+def test_reach_map_options_on_a_pose_map_are_one_line_errors(run, tmp_path):
+    result = run_script("evaluate", "--run", str(run), "--no-refine", "--targets", "2",
+                        "--out", str(tmp_path))  # fmt: skip
+    assert "hierarchical map of PumaGrasp-v0 has none" in one_line_error(result)
