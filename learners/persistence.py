@@ -166,6 +166,16 @@ def load_npz(
     return config, contents
 
 
+def stored_kind(path: str | os.PathLike) -> str | None:
+    """The kind of state a file written by :func:`save_npz` holds, or None if ``path`` is not
+    such a file (:func:`load_npz` then says what is wrong with it)."""
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            return str(archive[_KIND])
+    except Exception:
+        return None
+
+
 def _read_archive(path: Path) -> dict[str, np.ndarray]:
     """The arrays of an archive that :func:`save_npz` wrote, read strictly: every member stored
     uncompressed and unencrypted (as ``np.savez`` writes them), a ``.npy`` header whose shape and

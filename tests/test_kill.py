@@ -1,6 +1,7 @@
-"""Kill test: real ``scripts/train.py`` processes get SIGINT, SIGTERM and SIGKILL at random
-moments, are resumed each time, and must end with the checkpoint (map arrays, generator states,
-simulation state) and metrics.jsonl of an unbroken run, exactly.
+"""Kill test: real ``scripts/train.py`` processes (on the reach envs and on the pose env
+``PumaGrasp-v0``) get SIGINT, SIGTERM and SIGKILL at random moments, are resumed each time, and
+must end with the checkpoint (map arrays, generator states, simulation state) and metrics.jsonl
+of an unbroken run, exactly.
 
 ``make soak`` runs the long version (``VISUOMOTOR_SOAK=1``: more trials and signals).
 """
@@ -35,6 +36,9 @@ SETTINGS = [
                       "--eval-every", "8", "--eval-trials", "3"], 10),
     ("keep-arm-servo", ["--sensing", "project", "--control", "servo", "--keep-arm", "--trials",
                         "300", "--eval-every", "60", "--eval-trials", "5"], 10),
+    ("pose-project", ["--env", "PumaGrasp-v0", "--orientation-lattice", "2", "--sensing",
+                      "project", "--control", "kinematic", "--trials", "600", "--eval-every",
+                      "150", "--eval-trials", "20"], 10),
 ]  # fmt: skip
 #: Share of the signals sent during a process's start-up rather than its work.
 STARTUP_SHARE = 0.25

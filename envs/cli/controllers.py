@@ -14,13 +14,17 @@ from learners.baselines.random_controller import RandomController
 
 #: The controllers that need no file.
 NAMED = ("random", "analytic", "jacobian", "exact-servo")
+#: The floors of the pose envs (PumaGrasp-v0), through the same cameras.
+POSE_NAMED = ("pose_ik", "pose_jacobian")
 SPECS = f"{' | '.join(NAMED)} | PATH.npz (a saved VisuomotorSOM) | RUN (a train.py run folder)"
+#: The specs of the pose envs.
+POSE_SPECS = f"{' | '.join(POSE_NAMED)} | PATH.npz (a saved HierarchicalSOM) | RUN"
 
 
 def controller_spec(text: str) -> str:
     """argparse type of ``--controller``: a name of ``NAMED``, an existing ``.npz`` map, or a run
     folder holding one (given as its map's path); anything else is a one-line usage error."""
-    if text in NAMED:
+    if text in NAMED or text in POSE_NAMED:
         return text
     path = Path(text)
     if path.is_dir():
@@ -113,11 +117,38 @@ def make_controller(spec: str, env, seed: int = 0) -> Controller:
 
         ik = AnalyticIK.for_robot(base.nominal_stereo.triangulate, base.robot, joints=base.joints)
         return ExactServo(ik, base.nominal_stereo.project)
+    if spec in POSE_NAMED:
+        return make_pose_floor(spec, env)
     if spec.endswith(".npz"):
-        from envs.harness.checkpoint import check_map_fits
-        from learners.som.controller import VisuomotorSOM
+        from envs.harness.checkpoint import check_map_fits, load_map
 
-        som = VisuomotorSOM.load(Path(spec))
+        som = load_map(Path(spec))  # a VisuomotorSOM, or a HierarchicalSOM of a pose env
         check_map_fits(spec, som, env)  # a map of another robot or image size is refused
         return som
     raise ValueError(f"unknown controller {spec!r}; valid: {SPECS}")
+
+
+def check_task(specs: list[str], pose: bool) -> None:
+    """Exit with one line if a named controller of ``specs`` belongs to the other task (the
+    pose floors on a reach env, the reach baselines on a pose env)."""
+    from envs.cli.common import fail
+
+    for spec in specs:
+        if pose and spec in NAMED:
+            fail(f"{spec} is a reach controller; on PumaGrasp-v0 use {POSE_SPECS}")
+        if not pose and spec in POSE_NAMED:
+            fail(f"{spec} needs the pose env PumaGrasp-v0; on a reach env use {SPECS}")
+
+
+def make_pose_floor(spec: str, env) -> Controller:
+    """``pose_ik`` (exact pose IK) or ``pose_jacobian`` (damped least squares on the pose) from
+    the object's pose triangulated with the env's nominal cameras; ValueError on a reach env."""
+    from envs.grasp import GraspEnv
+    from learners.baselines.pose_ik import PoseIK, PoseJacobianIK
+    from models.puma560 import BASE_POS
+
+    base = env.unwrapped
+    if not isinstance(base, GraspEnv):
+        raise ValueError(f"{spec} needs a pose env (PumaGrasp-v0); for a reach env use {SPECS}")
+    floor = PoseIK if spec == "pose_ik" else PoseJacobianIK
+    return floor(base.nominal_stereo.triangulate, BASE_POS)

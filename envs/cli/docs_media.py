@@ -3,7 +3,8 @@
 RiacsReach-v0 and PumaReach-v0: reach trials filmed as the arm moves (servo control, foveated
 sensing, the exact IK as controller: no training needed), both camera views and the overview.
 PumaTrack-v0: the overview of the PUMA following a path with the exact inverse Jacobian, the
-path and the tool's trace drawn. Each file stays under 2 MB.
+path and the tool's trace drawn. PumaGrasp-v0: the hand brought onto objects by the exact pose IK
+(``envs.harness.grasp_film``). Each file stays under 2 MB.
 
 .venv/bin/python scripts/docs_media.py                  (writes docs/assets/<EnvId>.gif)
 """
@@ -20,6 +21,7 @@ import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli.controllers import make_controller
 from envs.harness.film import TrialFilm, side_by_side
+from envs.harness.grasp_film import grasp_frames
 from envs.reach import REACH_ENV_IDS
 
 GIF_FPS = 12.0  # frames per second of the animations
@@ -80,6 +82,8 @@ def main(argv: list[str] | None = None) -> list[Path]:
         frames = reach_frames(env_id, args.trials, args.seed)
         written.append(write_gif(frames, args.out / f"{env_id}.gif", GIF_FPS))
     written.append(write_gif(track_frames(args.seed), args.out / "PumaTrack-v0.gif", GIF_FPS))
+    grasp = grasp_frames(args.trials, args.seed, GIF_FPS, GIF_PANEL)
+    written.append(write_gif(grasp, args.out / "PumaGrasp-v0.gif", GIF_FPS))
     for path in written:
         print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB)")
     return written

@@ -3,6 +3,11 @@
     .venv/bin/python scripts/evaluate.py --run runs/riacs          # the trained SOM of a run
     .venv/bin/python scripts/evaluate.py --run runs/riacs --compare analytic jacobian
     .venv/bin/python scripts/evaluate.py --env PumaReach-v0 --controller analytic
+    .venv/bin/python scripts/evaluate.py --run runs/grasp --compare pose_ik   # the pose task
+
+On PumaGrasp-v0 the table gives, after every move, the position error (mm and % of the robot's
+reach) and the orientation error (degrees); the floor is the exact pose IK (pose_ik) through
+the same cameras. No plots there.
 
 Plots (for the first controller, if it is a SOM): learning curve (from the run's
 metrics.jsonl), error histogram, lattice in the left camera's image, targets and reached
@@ -18,7 +23,15 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import SPECS, Ticking, make_controller, run_folder
+from envs.cli.controllers import (
+    POSE_SPECS,
+    SPECS,
+    Ticking,
+    check_task,
+    make_controller,
+    run_folder,
+)
+from envs.grasp import GRASP_ENV_IDS
 from envs.harness import plots
 from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, evaluate
@@ -29,6 +42,7 @@ from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
 from learners.som.config import ABAR, PROTOCOLS
 from learners.som.controller import VisuomotorSOM
+from learners.som.hierarchical import HierarchicalSOM
 
 #: Held-out targets come from this seed unless told otherwise (never a training seed offset).
 DEFAULT_SEED = 20_000
@@ -41,9 +55,9 @@ def main(argv: list[str] | None = None) -> dict:
         type=run_folder,
         help="a train.py run folder (som.npz, metrics.jsonl) or its som.npz",
     )
-    p.add_argument("--controller", help=f"instead of --run: {SPECS}")
-    p.add_argument("--compare", nargs="*", default=[], help=f"more controllers: {SPECS}")
-    p.add_argument("--env", choices=REACH_ENV_IDS, help="default: the run's env")
+    p.add_argument("--controller", help=f"instead of --run: {SPECS}; on PumaGrasp-v0: {POSE_SPECS}")
+    p.add_argument("--compare", nargs="*", default=[], help="more controllers, as --controller")
+    p.add_argument("--env", choices=REACH_ENV_IDS + GRASP_ENV_IDS, help="default: the run's env")
     p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
     p.add_argument("--control", choices=CONTROL_MODES, help="default: the run's")
     p.add_argument("--image-size", type=cli.image_size,
@@ -97,7 +111,9 @@ def main(argv: list[str] | None = None) -> dict:
     cli.check_image_size(env_id, (width, height))
     out = check_writable(args.out or (args.run / "eval" if args.run else Path("runs/eval")))
     specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
-    plotted = not args.no_plots and specs[0].endswith(".npz")
+    pose = env_id in GRASP_ENV_IDS
+    check_task(specs, pose)
+    plotted = not args.no_plots and specs[0].endswith(".npz") and not pose
     metrics = None  # read before any work, so that a damaged log stops nothing half-way
     if plotted and args.run is not None and (args.run / METRICS_FILE).is_file():
         metrics = read_metrics(check_writable(args.run) / METRICS_FILE)  # its learning curve
@@ -110,13 +126,20 @@ def main(argv: list[str] | None = None) -> dict:
         if isinstance(controller, VisuomotorSOM):
             controller = controller.with_config(**som_changes(args))
             name = som_name(controller)
+        elif isinstance(controller, HierarchicalSOM):
+            if som_changes(args):
+                cli.fail(
+                    "--protocol, --no-refine, --abar and --recover change the reach map; the "
+                    "hierarchical map of PumaGrasp-v0 has none of them"
+                )
+            name = "hierarchical som"
         env.reset(seed=args.seed)  # the same held-out targets for every controller
         result = evaluate_with_bar(env, controller, name, args.targets, args.fine_moves)
         results[name] = result
         rows.append({"controller": name, **result.summary()})
     print(f"{env_id}  sensing={sensing} ({format_size(width, height)})  control={control}  "
           f"{args.targets} targets, seed {args.seed}")  # fmt: skip
-    print(format_table(rows))
+    print(format_pose_table(rows) if pose else format_table(rows))
     out.mkdir(parents=True, exist_ok=True)
     summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
                "width": width, "height": height,
@@ -183,6 +206,28 @@ def format_table(rows: list[dict]) -> str:
                 f"{r['controller']}: {r['recovered_trials']} trials recovered from an unseen "
                 f"marker, {r['mean_recovery_moves']:.4f} extra moves per trial"
             )
+    lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
+    return "\n".join(lines)
+
+
+def format_pose_table(rows: list[dict]) -> str:
+    """The pose task's table: mean position error (mm, % of reach) and orientation error (°)
+    after each move, then median and 95th percentile after the last, over every trial, and the
+    complete trials."""
+    moves = len(rows[0]["mean_mm"])
+    names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
+    head = f"{'controller':<18}" + "".join(f"{n + ' [mm / % / deg]':>30}" for n in names)
+    head += f"{'last median':>20}{'last p95':>20}{'complete':>10}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        line = f"{r['controller']:<18}"
+        for k in range(moves):
+            cell = f"{r['mean_mm'][k]:.3f} / {r['mean_percent_reach'][k]:.4f} / "
+            line += f"{cell + format(r['mean_deg'][k], '.3f'):>30}"
+        for key in ("median", "p95"):
+            line += f"{r[key + '_mm'][-1]:.3f} mm {r[key + '_deg'][-1]:.3f} deg".rjust(20)
+        line += f"{r['complete_fraction'] * 100:>9.1f}%"
+        lines.append(line)
     lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
     return "\n".join(lines)
 

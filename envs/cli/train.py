@@ -2,6 +2,12 @@
 
     .venv/bin/python scripts/train.py --env RiacsReach-v0 --trials 10000 --out runs/riacs
     .venv/bin/python scripts/train.py --out runs/riacs --resume   # continue a stopped run
+    .venv/bin/python scripts/train.py --env PumaGrasp-v0 --trials 6144 --out runs/grasp
+
+On PumaGrasp-v0 (the hand's position and orientation) it trains the hierarchical map: --lattice
+is its position lattice (default 8x8x6) and --orientation-lattice the lattice nested at every
+position node (default 2x2x2); --rule, --protocol and --abar belong to the reach map only. The
+held-out evaluations then also give the orientation error in degrees.
 
 Writes OUT/som.npz (the checkpoint: the map, where the run stands, the simulation state; it
 loads as a map) and OUT/metrics.jsonl (a held-out evaluation every --eval-every trials: errors
@@ -25,11 +31,15 @@ from tqdm import tqdm
 import envs  # noqa: F401  (registers the envs)
 from envs import sizes
 from envs.cli import common as cli
+from envs.grasp import GRASP_ENV_IDS
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
 from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 from learners.persistence import writing
 from learners.som.config import PROTOCOLS, RULES
+from learners.som.hierarchical_config import HierarchicalConfig
+
+_POSE_MAP = HierarchicalConfig()
 
 #: The progress bar's label while training, and while the map is evaluated on held-out targets
 #: (before the first trial, and every --eval-every trials), which the bar does not count.
@@ -61,11 +71,17 @@ def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str
 def main(argv: list[str] | None = None) -> Path:
     d = RunConfig()
     p = cli.parser(__doc__)
-    p.add_argument("--env", default=d.env, choices=REACH_ENV_IDS)
+    p.add_argument("--env", default=d.env, choices=REACH_ENV_IDS + GRASP_ENV_IDS)
     p.add_argument("--trials", type=cli.positive_int, default=d.trials)
     p.add_argument("--seed", type=cli.nonnegative_int, default=d.seed)
-    p.add_argument("--lattice", type=cli.lattice, default=sizes.format_lattice(d.lattice),
-                   help="lattice shape, e.g. 12x7x4")  # fmt: skip
+    reach, pose = sizes.format_lattice(d.lattice), sizes.format_lattice(_POSE_MAP.position_lattice)
+    p.add_argument("--lattice", type=cli.lattice,
+                   help=f"lattice shape (default {reach}; PumaGrasp-v0: the position lattice, "
+                   f"default {pose})")  # fmt: skip
+    nested = sizes.format_lattice(_POSE_MAP.orientation_lattice)
+    p.add_argument("--orientation-lattice", type=cli.lattice,
+                   help=f"PumaGrasp-v0: the lattice nested at every position node (default "
+                   f"{nested})")  # fmt: skip
     p.add_argument("--rule", default=d.rule, choices=RULES)
     p.add_argument(
         "--protocol",
@@ -88,6 +104,11 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--force", action="store_true", help="start over in a folder holding a run")
     args = p.parse_args(argv)
     cli.check_image_size(args.env, args.image_size)
+    pose_env = args.env in GRASP_ENV_IDS
+    if args.orientation_lattice is not None and not pose_env and not args.resume:
+        cli.fail(f"--orientation-lattice is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
+    if args.lattice is None:
+        args.lattice = _POSE_MAP.position_lattice if pose_env else d.lattice
 
     with SignalStop() as stop:
         if args.resume:
@@ -102,11 +123,12 @@ def main(argv: list[str] | None = None) -> Path:
                 )
             trainer = Trainer.resume(args.out, args.trials if "trials" in given else None)
         else:
-            config = RunConfig(
+            config = pose_checked(
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
                 trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
                 protocol=args.protocol, width=args.image_size[0], height=args.image_size[1],
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
+                orientation_lattice=args.orientation_lattice if pose_env else None,
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)
         try:
@@ -116,6 +138,17 @@ def main(argv: list[str] | None = None) -> Path:
             trainer.close()
     print(f"trained {trainer.trial} trials; map in {args.out / MAP_FILE}")
     return args.out
+
+
+def pose_checked(**options: object) -> RunConfig:
+    """``RunConfig(**options)``; on a pose env a reach-map option is a one-line user error."""
+    try:
+        return RunConfig(**options)
+    except ValueError as exc:
+        if options["env"] not in GRASP_ENV_IDS:
+            raise
+        cli.fail(str(exc))
+        raise  # not reached: fail exits
 
 
 def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:

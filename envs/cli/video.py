@@ -3,8 +3,12 @@
 Servo moves are filmed as they happen (30 frames a second of simulated time by default; --speed
 2 plays them twice as fast); kinematic moves are shown as a short interpolation, marked as such.
 With --compare, a second controller makes the same trials on the same targets, drawn below.
+On PumaGrasp-v0 the env's own three views are filmed (the object's markers crosshaired, the
+hand's detected markers circled) with the position and orientation errors after each move; its
+controllers are pose_ik, pose_jacobian or a trained hierarchical map.
 
 .venv/bin/python scripts/video.py --env PumaReach-v0 --controller runs/puma --compare analytic
+.venv/bin/python scripts/video.py --env PumaGrasp-v0 --controller runs/grasp --compare pose_ik
 """
 
 from __future__ import annotations
@@ -15,20 +19,30 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli.controllers import NAMED, SPECS, controller_spec, make_controller
+from envs.cli.controllers import (
+    NAMED,
+    POSE_NAMED,
+    SPECS,
+    check_task,
+    controller_spec,
+    make_controller,
+)
+from envs.grasp import GRASP_ENV_IDS
 from envs.harness.film import VIDEO_FPS, TrialFilm, side_by_side
+from envs.harness.grasp_film import GraspFilm
 from envs.harness.run_folder import check_writable
 from envs.harness.video import VideoWriter
 from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 
 
 def controller_name(spec: str, controller) -> str:
-    return spec if spec in NAMED else f"{type(controller).__name__} ({Path(spec).name})"
+    named = spec in NAMED or spec in POSE_NAMED
+    return spec if named else f"{type(controller).__name__} ({Path(spec).name})"
 
 
 def main(argv: list[str] | None = None) -> Path:
     parser = cli.parser(__doc__)
-    parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENV_IDS)
+    parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENV_IDS + GRASP_ENV_IDS)
     parser.add_argument("--controller", required=True, type=controller_spec, help=SPECS)
     parser.add_argument(
         "--compare", type=controller_spec, help="a second controller on the same targets"
@@ -47,9 +61,15 @@ def main(argv: list[str] | None = None) -> Path:
     check_writable(args.out.parent)  # a read-only folder or a full disk, before any work
 
     specs = [args.controller] + ([args.compare] if args.compare else [])
+    check_task(specs, args.env in GRASP_ENV_IDS)
     runs = []  # (env, controller, film) per controller; the same seed gives the same targets
+    pose = args.env in GRASP_ENV_IDS
     for spec in specs:
-        env = gym.make(args.env, sensing=args.sensing, control=args.control)
+        if pose:  # the pose env draws its own views
+            env = gym.make(args.env, sensing=args.sensing, control=args.control,
+                           render_mode="rgb_array")  # fmt: skip
+        else:
+            env = gym.make(args.env, sensing=args.sensing, control=args.control)
         controller = make_controller(spec, env, args.seed)
         speed = "real time" if args.speed == 1 else f"{args.speed:g}x real time"
         title = (
@@ -57,7 +77,8 @@ def main(argv: list[str] | None = None) -> Path:
             f"control={args.control}  ({speed})"
         )
         env.reset(seed=args.seed)
-        runs.append((env, controller, TrialFilm(env, title, args.fps, args.speed)))
+        film = (GraspFilm if pose else TrialFilm)(env, title, args.fps, args.speed)
+        runs.append((env, controller, film))
     with VideoWriter(args.out, args.fps) as video:
         for i in cli.progress(range(args.trials), "video", "trial"):
             label = f"trial {i + 1}/{args.trials}"

@@ -2,8 +2,10 @@
 the run stands, the env's full simulation state and random generator, and how many metrics rows
 belong to it, and that says which robot, joints, sensing, image size and lattice it is for.
 
-The unit is a :class:`~learners.som.controller.VisuomotorSOM` file with two more entries (``run``:
-JSON, ``sim_state``: the MuJoCo integration state), so ``VisuomotorSOM.load(unit)`` reads its map.
+The unit is a map file (a :class:`~learners.som.controller.VisuomotorSOM` on the reach envs, a
+:class:`~learners.som.hierarchical.HierarchicalSOM` on the pose envs) with two more entries
+(``run``: JSON, ``sim_state``: the MuJoCo integration state), so the map's own ``load(unit)``
+reads it, and :func:`load_map` reads either kind.
 """
 
 from __future__ import annotations
@@ -16,8 +18,18 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from learners.persistence import CheckpointError, load_npz, save_npz
+from envs.grasp import GraspEnv
+from learners.persistence import CheckpointError, load_npz, save_npz, stored_kind
+from learners.som import hierarchical
 from learners.som.controller import FORMAT_VERSION, KIND, VisuomotorSOM
+from learners.som.hierarchical import HierarchicalSOM
+
+Map = VisuomotorSOM | HierarchicalSOM
+#: The maps a unit may hold: kind -> (class, format version).
+MAP_KINDS: dict[str, tuple[type, int]] = {
+    KIND: (VisuomotorSOM, FORMAT_VERSION),
+    hierarchical.KIND: (HierarchicalSOM, hierarchical.FORMAT_VERSION),
+}
 
 #: The unit's file name in a run folder (the map file the scripts load).
 CHECKPOINT_FILE = "som.npz"
@@ -62,18 +74,33 @@ def set_sim_state(env: Any, state: np.ndarray) -> None:
     mujoco.mj_forward(base.model, base.data)
 
 
+def _kind(path: str | os.PathLike) -> tuple[str, type, int]:
+    """(kind, map class, format version) of the map file ``path`` (the reach map's when the
+    file names no kind this code reads: loading it then says what is wrong)."""
+    kind = stored_kind(path)
+    kind = kind if kind in MAP_KINDS else KIND
+    return (kind, *MAP_KINDS[kind])
+
+
+def load_map(path: str | os.PathLike) -> Map:
+    """The map of a map file or unit, of whichever kind it holds (CheckpointError if none)."""
+    return _kind(path)[1].load(path)
+
+
 def write_unit(
-    path: str | os.PathLike, som: VisuomotorSOM, run: dict[str, Any], sim_state: np.ndarray
+    path: str | os.PathLike, som: Map, run: dict[str, Any], sim_state: np.ndarray
 ) -> Path:
     """Write the map, ``run`` (JSON-able) and the simulation state to ``path`` atomically."""
     config, arrays = som.state()
+    kind = KIND if isinstance(som, VisuomotorSOM) else hierarchical.KIND
     extra = {_RUN: np.array(json.dumps(run, sort_keys=True)), _SIM: sim_state}
-    return save_npz(path, KIND, FORMAT_VERSION, config, {**arrays, **extra})
+    return save_npz(path, kind, MAP_KINDS[kind][1], config, {**arrays, **extra})
 
 
 def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
     """(run, simulation state) of a unit; CheckpointError for a plain map or a damaged file."""
-    return _unit(path, load_npz(path, KIND, FORMAT_VERSION)[1])
+    kind, _, version = _kind(path)
+    return _unit(path, load_npz(path, kind, version)[1])
 
 
 def _unit(path: str | os.PathLike, arrays: dict[str, Any]) -> tuple[dict[str, Any], np.ndarray]:
@@ -92,7 +119,8 @@ def _unit(path: str | os.PathLike, arrays: dict[str, Any]) -> tuple[dict[str, An
 
 def read_identity(path: str | os.PathLike) -> dict[str, Any] | None:
     """The identity recorded in a unit, or None for a plain map file."""
-    _, arrays = load_npz(path, KIND, FORMAT_VERSION)
+    kind, _, version = _kind(path)
+    _, arrays = load_npz(path, kind, version)
     if _RUN not in arrays:
         return None
     return unit_identity(_unit(path, arrays)[0])
@@ -120,13 +148,21 @@ def check_identity(
         )
 
 
-def check_map_fits(path: str | os.PathLike, som: VisuomotorSOM, env: Any) -> None:
+def check_map_fits(path: str | os.PathLike, som: Map, env: Any) -> None:
     """Refuse a map trained for another robot, joint set or image size than ``env``'s.
 
     A unit names its robot, joints and image size; a plain map file is checked by its joint
     ranges, which differ between robots and joint sets. Sensing may differ (both give pixels).
+    A pose env (12 goal pixels) needs the hierarchical map, a reach env the reach map.
     """
     base = env.unwrapped
+    pose = isinstance(base, GraspEnv)
+    if pose != isinstance(som, HierarchicalSOM):
+        wanted = "a HierarchicalSOM (pose)" if pose else "a VisuomotorSOM (reach)"
+        raise CheckpointError(
+            f"{path} holds a {type(som).__name__}, but this env needs {wanted} map; train one on "
+            "this env with train.py"
+        )
     recorded = read_identity(path)
     if recorded is not None:
         keys = ("robot", "joints", "width", "height")

@@ -5,6 +5,8 @@ see), unless the controller recovers (``Controller.recover``; its extra moves ar
 error after every later move of a stopped trial is the error where it stopped: those values are
 carried forward, and every mean, median and percentile counts all trials. A trial whose
 target was not seen makes no move and keeps the error of its start pose.
+On a pose env (which reports ``info["orientation_error"]``) the hand's orientation errors are
+carried forward the same way.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ class Evaluation:
     #: (n,) int, recovery moves of each trial; None: the controller did not recover (the
     #: summary then has no recovery entries)
     recovery_moves: np.ndarray | None = None
+    orientation_errors: np.ndarray | None = None  # (n, moves) rad; pose envs only
 
     def __post_init__(self) -> None:
         if self.moves_made is None:
@@ -53,9 +56,10 @@ class Evaluation:
 
     def summary(self) -> dict[str, object]:
         """Per move, over all trials: mean, median and 95th percentile in mm, mean in % of reach,
-        mean, median and 95th percentile in px; the fraction of trials that made each move; the
-        complete trials (count and fraction); with recovery, the trials that made recovery
-        moves and the mean recovery moves per trial. JSON-ready."""
+        mean, median and 95th percentile in px; on a pose env also mean, median and 95th
+        percentile of the orientation error in degrees; the fraction of trials that made each
+        move; the complete trials (count and fraction); with recovery, the trials that made
+        recovery moves and the mean recovery moves per trial. JSON-ready."""
         mm = self.distances * MM_PER_M
         px = self.pixel_errors
         mean_m = self.distances.mean(axis=0)
@@ -72,8 +76,13 @@ class Evaluation:
             "mean_px": px.mean(axis=0).round(4).tolist(),
             "median_px": np.median(px, axis=0).round(4).tolist(),
             "p95_px": np.percentile(px, PERCENTILE, axis=0).round(4).tolist(),
-            "microseconds_per_query": round(self.seconds_per_query * 1e6, 2),
         }
+        if self.orientation_errors is not None:
+            deg = np.degrees(self.orientation_errors)
+            out["mean_deg"] = deg.mean(axis=0).round(5).tolist()
+            out["median_deg"] = np.median(deg, axis=0).round(5).tolist()
+            out["p95_deg"] = np.percentile(deg, PERCENTILE, axis=0).round(5).tolist()
+        out["microseconds_per_query"] = round(self.seconds_per_query * 1e6, 2)
         if self.recovery_moves is not None:
             out["recovered_trials"] = int((self.recovery_moves > 0).sum())
             out["mean_recovery_moves"] = round(float(self.recovery_moves.mean()), 5)
@@ -120,6 +129,14 @@ def carried_forward(trial: Trial, moves: int) -> tuple[np.ndarray, np.ndarray, n
     return np.take(distances, last), np.take(pixels, last), np.asarray(ended, dtype=float)
 
 
+def carried_orientation(trial: Trial, moves: int) -> np.ndarray:
+    """Orientation errors (moves,) rad after each move of a pose-env trial, carried forward
+    from where it stopped as :func:`carried_forward` carries the distances."""
+    errors = [trial.start_orientation_error, *trial.orientation_errors]
+    made = len(trial.orientation_errors)
+    return np.take(errors, [min(k + 1, made) for k in range(moves)])
+
+
 def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> Evaluation:
     """Run ``trials`` trials (targets from the env's own seeded generator; the caller seeds it
     with ``env.reset(seed=...)``) without learning."""
@@ -130,6 +147,8 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
     reached = np.zeros((trials, 3))
     made = np.zeros(trials, dtype=int)
     recoveries = np.zeros(trials, dtype=int)
+    orientation = np.zeros((trials, moves))
+    pose = False  # the env reports the hand's orientation
     timed = _TimedController(controller)
     for i in range(trials):
         trial = run_trial(env, timed, fine_moves)
@@ -137,6 +156,9 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
         targets[i] = trial.target_pos
         made[i] = len(trial.distances)
         recoveries[i] = trial.recovery_moves
+        if np.isfinite(trial.start_orientation_error):
+            pose = True
+            orientation[i] = carried_orientation(trial, moves)
     return Evaluation(
         distances,
         pixels,
@@ -146,4 +168,5 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
         timed.seconds / max(timed.calls, 1),
         made,
         recoveries if controller.recover else None,
+        orientation if pose else None,
     )

@@ -14,12 +14,15 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from envs.grasp import GRASP_ENV_IDS
 from envs.harness.checkpoint import (
     CHECKPOINT_FILE,
+    Map,
     check_identity,
     check_map_fits,
     get_sim_state,
     identity,
+    load_map,
     read_unit,
     set_sim_state,
     unit_identity,
@@ -35,6 +38,8 @@ from envs.sizes import check_image_size
 from learners.persistence import CheckpointError
 from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
+from learners.som.hierarchical import HierarchicalSOM
+from learners.som.hierarchical_config import HierarchicalConfig
 
 #: The checkpoint unit is also the run's map file (``VisuomotorSOM.load`` reads it).
 MAP_FILE = CHECKPOINT_FILE
@@ -53,18 +58,28 @@ RUNNING_WEIGHT = 0.02
 #: the map's ``t_max`` is the run's ``trials``.
 MAP_OPTIONS = ("lattice", "rule", "protocol", "refine", "abar")
 _MAP = SOMConfig()
+#: The reach map's options that the pose envs' hierarchical map does not have: a pose run
+#: leaves them at their defaults.
+REACH_ONLY = ("rule", "protocol", "abar")
 
 
 def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int]:
-    """:func:`envs.sizes.check_image_size` against the cameras of the registered reach env
+    """:func:`envs.sizes.check_image_size` against the cameras of the registered reach or pose env
     ``env_id`` (ImageSizeError unless (width, height) px suits them)."""
-    robot = gym.spec(env_id).kwargs["robot"]
+    robot = gym.spec(env_id).kwargs.get("robot", "puma560")  # the pose envs are the PUMA's
     return check_image_size(width, height, ROBOTS[robot].image_aspect)
 
 
 @dataclass(frozen=True)
 class RunConfig:
-    """Everything that defines a training run (stored in the checkpoint)."""
+    """Everything that defines a training run (stored in the checkpoint).
+
+    On a reach env the run trains a :class:`~learners.som.controller.VisuomotorSOM` of shape
+    ``lattice``; on a pose env (``PumaGrasp-v0``) a
+    :class:`~learners.som.hierarchical.HierarchicalSOM` whose position lattice is ``lattice``
+    and whose nested lattice is ``orientation_lattice`` (None: the map's default), with
+    ``refine`` as its option of that name.
+    """
 
     env: str = "RiacsReach-v0"
     sensing: str = "project"
@@ -82,6 +97,7 @@ class RunConfig:
     abar: str = _MAP.abar  # Ā of the test-time fine moves (training moves use the average)
     width: int = IMAGE_WIDTH  # sensing images, px
     height: int = IMAGE_HEIGHT  # px
+    orientation_lattice: tuple[int, ...] | None = None  # pose envs only
 
     def __post_init__(self) -> None:
         """Checks every field, so that a configuration read back from a checkpoint or a sweep
@@ -89,7 +105,10 @@ class RunConfig:
         if not isinstance(self.lattice, (tuple, list)):
             raise ValueError(f"lattice is {self.lattice!r}, not a list of sizes")
         object.__setattr__(self, "lattice", tuple(self.lattice))  # a tuple also from JSON lists
-        choices = {"env": REACH_ENV_IDS, "sensing": SENSING_MODES, "control": CONTROL_MODES}
+        if isinstance(self.orientation_lattice, list):
+            object.__setattr__(self, "orientation_lattice", tuple(self.orientation_lattice))
+        envs = REACH_ENV_IDS + GRASP_ENV_IDS
+        choices = {"env": envs, "sensing": SENSING_MODES, "control": CONTROL_MODES}
         for name, valid in choices.items():
             if getattr(self, name) not in valid:
                 raise ValueError(f"{name} is {getattr(self, name)!r}; valid: {', '.join(valid)}")
@@ -101,7 +120,24 @@ class RunConfig:
                 raise ValueError(f"{name} is {value!r}; it takes an integer >= {low}")
         if not isinstance(self.keep_arm, bool):
             raise ValueError(f"keep_arm is {self.keep_arm!r}, not true or false")
-        self.map_config()  # the map's options, checked by SOMConfig
+        if self.pose:
+            changed = [k for k in REACH_ONLY if getattr(self, k) != getattr(_MAP, k)]
+            if changed:
+                raise ValueError(
+                    f"the reach map's option(s) {', '.join(changed)} do not apply to "
+                    f"{self.env}'s hierarchical map; leave them out"
+                )
+        elif self.orientation_lattice is not None:
+            raise ValueError(
+                f"orientation_lattice is for the pose envs ({', '.join(GRASP_ENV_IDS)}), not "
+                f"{self.env}; leave it out"
+            )
+        self.map_config()  # the map's options, checked by SOMConfig or HierarchicalConfig
+
+    @property
+    def pose(self) -> bool:
+        """The run is on a pose env (the hierarchical map)."""
+        return self.env in GRASP_ENV_IDS
 
     @classmethod
     def from_stored(cls, stored: dict[str, Any]) -> RunConfig:
@@ -112,8 +148,17 @@ class RunConfig:
             stored["height"], stored["width"] = stored.pop("image_size")
         return cls(**stored)
 
-    def map_config(self) -> SOMConfig:
+    def map_config(self) -> SOMConfig | HierarchicalConfig:
         """The options of the run's map (ValueError naming a bad one)."""
+        if self.pose:
+            nested = self.orientation_lattice or HierarchicalConfig().orientation_lattice
+            return HierarchicalConfig.of(
+                position_lattice=self.lattice,
+                orientation_lattice=nested,
+                image_size=(self.width, self.height),
+                t_max=self.trials,
+                refine=self.refine,
+            )
         return SOMConfig.of(**{k: getattr(self, k) for k in MAP_OPTIONS}, t_max=self.trials)
 
     def make_env(self, seed_offset: int = 0) -> gym.Env:
@@ -126,6 +171,22 @@ class RunConfig:
         )
         env.reset(seed=self.seed + seed_offset)
         return env
+
+
+def initial_pose_map(config: RunConfig, env: gym.Env) -> HierarchicalSOM:
+    """A fresh hierarchical map for a pose env from what a robot knows: the joint ranges, the
+    taught pose (keyframe ``ready``) at every leaf, and the image size (the map spreads its
+    position nodes over the image), as the grasp-learning study builds it."""
+    base = env.unwrapped
+    joints = [base.model.joint(f"joint{i + 1}").qposadr[0] for i in range(base.joints)]
+    ready = base.model.key("ready").qpos[joints]
+    return HierarchicalSOM(
+        base.joint_lower,
+        base.joint_upper,
+        ready.copy(),
+        config.map_config(),
+        rng=np.random.default_rng(config.seed),
+    )
 
 
 def initial_map(config: RunConfig, env: gym.Env, **options: Any) -> VisuomotorSOM:
@@ -195,7 +256,9 @@ class Trainer:
     def _build(self, config: RunConfig, folder: RunFolder) -> None:
         self.config, self.folder, self.out = config, folder, folder.path
         self.env = config.make_env()
-        self.som = initial_map(config, self.env)
+        self.som: Map = (
+            initial_pose_map(config, self.env) if config.pose else initial_map(config, self.env)
+        )
         self.trial, self.metrics_rows, self.pending_eval = 0, 0, False
         self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}
 
@@ -231,7 +294,7 @@ class Trainer:
             trainer._build(config, folder)
             wanted = identity(trainer.env, config.lattice)
             check_identity(path, unit_identity(run), wanted, tuple(wanted))
-            trainer.som = VisuomotorSOM.load(path)
+            trainer.som = load_map(path)
             check_map_fits(path, trainer.som, trainer.env)
             lattice = {"lattice": list(trainer.som.lattice)}
             check_identity(path, lattice, {"lattice": list(config.lattice)}, ("lattice",))

@@ -40,6 +40,9 @@ class Trial:
     start_pixel_error: float = float("nan")  # px, before the coarse move
     start_pos: np.ndarray | None = None  # (3,) world m, the sensed point before the coarse move
     recovery_moves: int = 0  # extra moves made to see the marker again (controller.recover)
+    #: rad, ground truth after move k, when the env reports the hand's orientation (pose envs)
+    orientation_errors: list[float] = field(default_factory=list)
+    start_orientation_error: float = float("nan")  # rad, before the coarse move (pose envs)
 
     @property
     def target_visible(self) -> bool:
@@ -86,6 +89,7 @@ def run_trial(
         start_distance=info.get("distance", np.nan),  # every ReachEnv reports these at reset
         start_pixel_error=info.get("pixel_error", np.nan),
         start_pos=info.get("effector_pos"),
+        start_orientation_error=info.get("orientation_error", np.nan),
     )
     controller.reset()
     if on_move is not None:
@@ -106,6 +110,8 @@ def run_trial(
         trial.pixel_errors.append(info["pixel_error"])
         trial.visible.append(info["visible"])
         trial.reached.append(info["effector_pos"])
+        if "orientation_error" in info:
+            trial.orientation_errors.append(info["orientation_error"])
         if on_move is not None:
             on_move(k, trial)
         if protocol == "mrs" and not np.all(np.isfinite(sensed)):

@@ -115,6 +115,8 @@ def _config(values: dict[str, Any]) -> RunConfig:
 def cell_name(config: RunConfig) -> str:
     """Readable, unique folder name: the main axes' values and a hash of the configuration."""
     values = asdict(config)
+    if values["orientation_lattice"] is None:  # a reach run: hashed as before the pose envs
+        del values["orientation_lattice"]
     robot = {v: k for k, v in ROBOTS.items()}.get(config.env, config.env)
     parts = [robot if axis == "robot" else values.get(axis) for axis in NAME_AXES]
     text = "_".join(

@@ -154,6 +154,11 @@ class HierarchicalSOM(Learner):
         return self.lower.shape[0]
 
     @property
+    def lattice(self) -> tuple[int, ...]:
+        """The position lattice's shape (what a training run's identity records)."""
+        return self.config.position_lattice
+
+    @property
     def n_leaves(self) -> int:
         return self.config.n_positions * self.config.n_orientations
 
@@ -324,13 +329,18 @@ class HierarchicalSOM(Learner):
     # ----------------------------------------------------------------------------- saving
     def save(self, path: str | os.PathLike) -> Path:
         """Write the map (options, arrays, t, skip counts, generator state) atomically."""
+        return save_npz(path, KIND, FORMAT_VERSION, *self.state())
+
+    def state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """(configuration, arrays) that :meth:`save` writes; a training run's checkpoint adds
+        its own entries beside them (``envs.harness.checkpoint``), and :meth:`load` reads both."""
         config = self.config.to_dict()
         config.update(t=self.t, skipped=dict(self.skipped), rng_state=self.rng.bit_generator.state)
         arrays = {
             "w_pos": self.w_pos, "w_ori": self.w_ori, "theta": self.theta, "A": self.A,
             "df_cov": self.df_cov, "joint_lower": self.lower, "joint_upper": self.upper,
         }  # fmt: skip
-        return save_npz(path, KIND, FORMAT_VERSION, config, arrays)
+        return config, arrays
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> HierarchicalSOM:
