@@ -16,7 +16,7 @@ from envs.robots import ROBOTS, MarkerSet
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.step_info import StepInfo
 from models.puma560 import BASE_POS
-from models.puma560.grasp import orientation_angle, sample_grasp_pose
+from models.puma560.grasp import marker_points, orientation_angle, sample_grasp_pose
 from models.workspace import BoxWorkspace
 
 #: The Gymnasium ids of the pose envs (registered in envs/__init__.py).
@@ -82,7 +82,8 @@ class GraspEnv(ReachEnv):
     (``models.puma560.grasp.sample_grasp_pose``): the wrist centre uniform in the reach task's
     workspace box, the orientation within 30° of the hand's at the taught keyframe ``ready``,
     drawn again until the right-arm, elbow-above branch of the exact pose IK has every joint in
-    range (those joints are :attr:`target_joints`). The arm returns to the keyframe ``home``
+    range (those joints are :attr:`target_joints`) and the images of the object's three marker
+    spheres lie wholly inside both cameras' images. The arm returns to the keyframe ``home``
     unless ``reset(options={"keep_arm": True})``; ``reset(options={"perturb": change})`` as in
     ``ReachEnv`` (a tool change moves the hand's three markers along the tool axis).
 
@@ -163,10 +164,24 @@ class GraspEnv(ReachEnv):
         shift = self.perturbation.base_shift
         box = self.spec_robot.workspace
         box = BoxWorkspace(box.lower + shift, box.upper + shift)
-        pose, self.target_joints = sample_grasp_pose(self.np_random, box, BASE_POS + shift)
+        while True:
+            pose, self.target_joints = sample_grasp_pose(self.np_random, box, BASE_POS + shift)
+            if self._in_view(marker_points(pose)):
+                break
         quat = np.empty(4)
         mujoco.mju_mat2Quat(quat, pose[:3, :3].ravel())
         return pose[:3, 3], quat
+
+    def _in_view(self, points: np.ndarray) -> bool:
+        """Whether the images of the marker spheres at ``points`` (3, 3) lie wholly inside both
+        cameras' images (the object is a task only if the cameras can see all of it)."""
+        size = np.array([self.image_width - 1.0, self.image_height - 1.0])
+        for camera in self.stereo.cameras:
+            uv = camera.project(points)  # (3, 2) px
+            margin = camera.sphere_semi_axes(points, self.target_radius)[:, :1]  # (3, 1) px
+            if np.any(uv - margin < 0.0) or np.any(uv + margin > size):
+                return False
+        return True
 
     def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, ...]:
         """(reward_distance, reward_orientation, reward_unseen) through

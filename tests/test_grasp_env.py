@@ -24,7 +24,7 @@ from envs import grasp
 from envs.goal_env import GoalEnvWrapper
 from envs.grasp import GRASP_ENV_IDS, ORIENTATION_WEIGHT, GraspEnv
 from models.puma560 import ARM_REACH, WORKSPACE
-from models.puma560.grasp import MAX_TILT, NOMINAL_ORIENTATION, orientation_angle
+from models.puma560.grasp import MAX_TILT, NOMINAL_ORIENTATION, marker_points, orientation_angle
 from models.puma560.inverse import D6
 from models.puma560.kinematics import frames
 
@@ -380,3 +380,25 @@ def test_sb3_check_env():
     advice = ("symmetric and normalized", "we recommend using np.float32")
     assert [m for m in plain if not any(a in m for a in advice)] == []
     assert normalized == []
+
+
+def test_every_object_is_in_view_of_both_cameras():
+    """Objects are drawn again until both cameras see all three markers whole: 1 000 resets,
+    every marker inside both images by at least its own image radius (exact projection)."""
+    env = gym.make("PumaGrasp-v0", sensing="project", control="kinematic")
+    try:
+        base = env.unwrapped
+        env.reset(seed=20_000)
+        size = np.array([base.image_width - 1.0, base.image_height - 1.0])
+        for _ in range(1000):
+            _, info = env.reset()
+            assert info["visible_target"].all()
+            points = marker_points(info["target_pose"])
+            for camera in base.stereo.cameras:
+                uv = camera.project(points)
+                radius = camera.sphere_semi_axes(points, base.target_radius)[:, 0]
+                assert np.all(uv.min(axis=1) >= radius) and np.all(
+                    (size - uv).min(axis=1) >= radius
+                )
+    finally:
+        env.close()

@@ -213,7 +213,9 @@ def _fit(
         o, p = outlines[k], points[k]
         rms = np.sqrt(np.mean(residuals[k] ** 2)) if len(p) >= MIN_OUTLINE_POINTS else np.inf
         fitted[k] = bool(rms <= MAX_RMS_PX)
-        share[k] = o.area / o.camera.sphere_area(centre[None], radius)[0]
+        image_area = o.camera.sphere_area(centre[None], radius)[0]
+        # A centre fitted within a radius of the camera has no image: no sighting to trust.
+        share[k] = o.area / image_area if image_area > 0.0 else 0.0
     own = {k: fitted[k] and share[k] >= 1.0 - MAX_HIDDEN for k in used}  # trusted on its own
     ok = dict(own)
     if len(used) == 2 and abs(outline_radius / radius - 1.0) <= RADIUS_TOL:
