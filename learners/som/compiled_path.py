@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from learners.som import kernels
+from learners.som.config import NOISE_TERMS
 from learners.som.local_fit import FIT_RADIUS, FIT_RIDGE, FIT_SIGMA
 
 #: Lattices of at least this many neurons search the winner block by block (bounding spheres of
@@ -129,6 +130,7 @@ class CompiledPath:
         table_w, table_out, _ = self._kernel_tables()
         found = kernels.learn(
             s, self.rule == "mrs", u, theta0, v0, theta1, v1, self.min_dv,
+            NOISE_TERMS * self.sensing_noise**2,
             self._w, self._w2, self._th, self._A, self._box, self._joints,
             eps, table_w, eps_out, table_out, self._shape, self._block_centre,
             self._block_radius,
