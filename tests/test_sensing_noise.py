@@ -49,7 +49,7 @@ HELD_OUT_SEED = 70_006
 def test_the_step_of_a_adds_three_sigma_squared_a_by_hand(kernel):
     """A* = A_s + ((Δθ − A_s Δv) Δv^T + 3σ² A_s) / |Δv|², then A_r += ε' h' (A* − A_r): with
     the winner alone and ε' = 1 the winner's A becomes A* exactly."""
-    sigma = 0.05
+    sigma = 0.02  # 5σ = 0.1 below this trial's |Δv| = 0.14
     som = hand_set_map(
         LOW, HIGH, averaging="winner", eps_out=1.0, sigma_out=0.01, sensing_noise=sigma,
         kernel=kernel,
@@ -61,6 +61,18 @@ def test_the_step_of_a_adds_three_sigma_squared_a_by_hand(kernel):
     a_star = a[s] + (np.outer((th1 - th0) - a[s] @ dv, dv) + 3 * sigma**2 * a[s]) / (dv @ dv)
     assert som.learn(**TRIAL) is True
     np.testing.assert_allclose(som.A[s], a_star, rtol=1e-13)
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_with_it_on_trials_whose_dv_is_within_five_sigma_are_skipped(kernel):
+    """|Δv| = 0.14 here: learned with σ = 0.028 (5σ = 0.14 just below), skipped with 0.029."""
+    dv = np.linalg.norm(TRIAL["v1"] - TRIAL["v0"])
+    for sigma, learned in ((0.99 * dv / 5, True), (1.01 * dv / 5, False)):
+        som = hand_set_map(LOW, HIGH, sensing_noise=sigma, kernel=kernel)
+        a = som.A.copy()
+        assert som.learn(**TRIAL) is learned
+        assert som.skipped["small_dv"] == (0 if learned else 1)
+        assert np.array_equal(som.A, a) is not learned
 
 
 def _trained(kernel: str, **options) -> VisuomotorSOM:

@@ -53,6 +53,9 @@ DEFAULT_SENSING_NOISE = 0.0
 #: Sightings whose errors enter a trial's Widrow-Hoff step in the mean (e1 once, e0 twice: in
 #: the sensed Δv and, through the fine move that corrected it, in Δθ): the 3 of 3σ².
 NOISE_TERMS = 3
+#: With ``sensing_noise`` σ on, trials with |Δv| below this many σ are skipped too: the
+#: correction 3σ²/|Δv|² then stays below 0.12 (smaller Δv made it diverge; docs/decisions.md).
+NOISE_SKIP = 5
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
 
@@ -94,7 +97,8 @@ class SOMConfig:
         sensing_noise: σ, the std of the error of one sensed input coordinate (input units,
             e.g. pixels): the Widrow-Hoff step of A adds 3σ² A_s to its numerator, undoing the
             shrinking of A that noise in v0 and v1 causes (errors in variables; 0: the
-            published step). Protocol "mrs" only.
+            published step). Trials with |Δv| < ``NOISE_SKIP`` σ are then skipped (as below
+            ``min_dv``). Protocol "mrs" only.
         protocol: one of ``PROTOCOLS``: MRS's loop or Brause's own.
         continual: a :class:`~learners.som.schedules.Continual` to keep re-adapting after t_max
             when the sensed error rises (None: the standard schedules, floors from t_max on).
@@ -170,6 +174,12 @@ class SOMConfig:
             raise ValueError(
                 f"SOMConfig.continual must be a Continual or None, got {self.continual!r}"
             )
+
+    @property
+    def learn_min_dv(self) -> float:
+        """Trials with |v1 − v0| below this are not learned: ``min_dv``, or ``NOISE_SKIP`` σ
+        when that is larger (``sensing_noise``)."""
+        return max(self.min_dv, NOISE_SKIP * self.sensing_noise)
 
     @staticmethod
     def _schedule(name: str, value: Any) -> Schedule:

@@ -31,7 +31,8 @@ Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δv =
          product with the sensed Δv is −A (σ² + σ² + σ²) when A inverts the arm's Jacobian (e1
          once, e0 in the sensing and, through the fine move, in the move). A Widrow-Hoff step
          on noisy Δv therefore shrinks A towards zero by about 3σ² against the spread of Δv,
-         most where Δv is small (late in training); 3σ² A_s puts that mean back.
+         most where Δv is small (late in training); 3σ² A_s puts that mean back. Trials with
+         |Δv| < 5σ are skipped then: there 3σ²/|Δv|² would grow A faster than it shrinks.
     rule "mrs":    θ* = θ_s + A_s (u − v0)    error sensed after the coarse move (MRS 1989/90)
     rule "brause": θ* = θ1 + A_s (w_s − v1)   error sensed after the fine move (Brause 3.9)
 All targets are computed from the map before the trial's updates. θ_r are then clipped into the
@@ -576,7 +577,8 @@ class VisuomotorSOM(CompiledPath, Learner):
         Returns:
             True if the map learned; False if the trial was skipped and counted in ``skipped``:
             "not_visible" when v0 or v1 holds NaN/inf (a marker not seen), "small_dv" when
-            |v1 − v0| < ``min_dv``. Only learned trials advance t.
+            |v1 − v0| < ``min_dv`` (or 5σ with ``sensing_noise``). Only learned trials
+            advance t.
         Raises:
             ValueError: u not finite or not (D,), θ0/θ1 not finite or not (J,), v0/v1 not
                 (D,), or any of them far outside the input box or joint ranges
@@ -606,7 +608,8 @@ class VisuomotorSOM(CompiledPath, Learner):
             return False
         dv = v1 - v0  # (D,)
         dv2 = float(dv @ dv)
-        if dv2 < self.min_dv * self.min_dv:
+        least = self._config.learn_min_dv
+        if dv2 < least * least:
             self.skipped["small_dv"] += 1
             return False
         if self._monitor is not None:
