@@ -120,6 +120,7 @@ def _everything_else() -> SOMConfig:
         lattice=(5, 4), input_dim=3, rule="brause", averaging="winner", refine=False,
         abar="average", t_max=77, eps=(0.7, 0.07), sigma=(1.5, 0.2), eps_out=(0.3, 0.03),
         sigma_out=(2.2, 0.3), explore=(0.0, 0.0), gamma=(0.9, 0.2), a_init=0.25, min_dv=0.5,
+        sensing_noise=0.1,
         protocol="brause", continual=Continual(fast=0.05, trigger=2.0, readapt=50), recover=True,
     )  # fmt: skip
 

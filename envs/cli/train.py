@@ -95,6 +95,9 @@ def main(argv: list[str] | None = None) -> Path:
     size = sizes.format_size(d.width, d.height)
     p.add_argument("--image-size", type=cli.image_size, default=size,
                    help="sensing images WIDTHxHEIGHT, e.g. 640x480")  # fmt: skip
+    p.add_argument("--sensing-noise", type=cli.nonnegative_float, default=d.sensing_noise,
+                   help="px: std of a sensed pixel's error; the map's Widrow-Hoff step corrects "
+                   "for it (0: the published step; docs/decisions.md)")  # fmt: skip
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
     p.add_argument("--eval-every", type=cli.positive_int, default=d.eval_every, help="trials")
     p.add_argument("--eval-trials", type=cli.positive_int, default=d.eval_trials, help="targets")
@@ -127,6 +130,7 @@ def main(argv: list[str] | None = None) -> Path:
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
                 trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
                 protocol=args.protocol, width=args.image_size[0], height=args.image_size[1],
+                sensing_noise=args.sensing_noise,
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
                 orientation_lattice=args.orientation_lattice if pose_env else None,
             )  # fmt: skip

@@ -56,11 +56,14 @@ INIT_SEED_OFFSET = 30_000
 RUNNING_WEIGHT = 0.02
 #: The RunConfig fields that are options of the map (``SOMConfig``, whose defaults they take);
 #: the map's ``t_max`` is the run's ``trials``.
-MAP_OPTIONS = ("lattice", "rule", "protocol", "refine", "abar")
+MAP_OPTIONS = ("lattice", "rule", "protocol", "refine", "abar", "sensing_noise")
 _MAP = SOMConfig()
 #: The reach map's options that the pose envs' hierarchical map does not have: a pose run
 #: leaves them at their defaults.
-REACH_ONLY = ("rule", "protocol", "abar")
+REACH_ONLY = ("rule", "protocol", "abar", "sensing_noise")
+#: RunConfig fields added after runs and sweep cells were named: left out of a stored or hashed
+#: configuration while they hold these values, so those names and files do not change.
+ADDED_LATER = {"sensing_noise": _MAP.sensing_noise, "orientation_lattice": None}
 
 
 def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int]:
@@ -95,6 +98,7 @@ class RunConfig:
     fine_moves: int = 2
     refine: bool = _MAP.refine
     abar: str = _MAP.abar  # Ā of the test-time fine moves (training moves use the average)
+    sensing_noise: float = _MAP.sensing_noise  # px; the Widrow-Hoff step's noise correction
     width: int = IMAGE_WIDTH  # sensing images, px
     height: int = IMAGE_HEIGHT  # px
     orientation_lattice: tuple[int, ...] | None = None  # pose envs only
@@ -147,6 +151,13 @@ class RunConfig:
         if "image_size" in stored:
             stored["height"], stored["width"] = stored.pop("image_size")
         return cls(**stored)
+
+    def to_stored(self) -> dict[str, Any]:
+        """The fields as a checkpoint stores them: a field of ``ADDED_LATER`` at its value there
+        is left out, so runs without it keep their files and sweep cells their names."""
+        return {
+            k: v for k, v in asdict(self).items() if not (k in ADDED_LATER and ADDED_LATER[k] == v)
+        }
 
     def map_config(self) -> SOMConfig | HierarchicalConfig:
         """The options of the run's map (ValueError naming a bad one)."""
@@ -317,7 +328,7 @@ class Trainer:
     def save(self) -> None:
         """Write the checkpoint unit (atomically: a kill leaves the previous one intact)."""
         run = {
-            "config": asdict(self.config),
+            "config": self.config.to_stored(),
             "identity": identity(self.env, self.config.lattice),
             "trial": self.trial,
             "running": self.running,

@@ -31,7 +31,7 @@ import math
 import os
 import shutil
 import time
-from dataclasses import asdict, fields, replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -114,9 +114,7 @@ def _config(values: dict[str, Any]) -> RunConfig:
 
 def cell_name(config: RunConfig) -> str:
     """Readable, unique folder name: the main axes' values and a hash of the configuration."""
-    values = asdict(config)
-    if values["orientation_lattice"] is None:  # a reach run: hashed as before the pose envs
-        del values["orientation_lattice"]
+    values = config.to_stored()
     robot = {v: k for k, v in ROBOTS.items()}.get(config.env, config.env)
     parts = [robot if axis == "robot" else values.get(axis) for axis in NAME_AXES]
     text = "_".join(
@@ -182,7 +180,7 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
     errors_mm = errors_all_counted(result.distances) * 1e3  # (n, moves)
     row = {
         "cell": folder.name,
-        **{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(config).items()},
+        **{k: list(v) if isinstance(v, tuple) else v for k, v in config.to_stored().items()},
         "robot": {v: k for k, v in ROBOTS.items()}.get(config.env, config.env),
         "neurons": som.n_neurons,
         "n_per_axis": round(som.n_neurons ** (1 / 3), 6),

@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from learners.som import kernels
+from learners.som.config import NOISE_TERMS
 from learners.som.local_fit import FIT_RADIUS, FIT_RIDGE, FIT_SIGMA
 
 #: Lattices of at least this many neurons search the winner block by block (bounding spheres of
@@ -120,7 +121,8 @@ class CompiledPath:
             finite = math.isfinite(u @ u + theta0 @ theta0 + theta1 @ theta1 + v0 @ v0 + v1 @ v1)
             if not finite:
                 return None
-            if float(dv @ dv) >= self.min_dv * self.min_dv:
+            least = self.config.learn_min_dv
+            if float(dv @ dv) >= least * least:
                 e = u - v0
                 if self.monitor.observe(self.t, self.t_max, math.sqrt(float(e @ e))):
                     self._params_t = -1
@@ -128,7 +130,8 @@ class CompiledPath:
         eps, _, eps_out, _, _ = self.params()
         table_w, table_out, _ = self._kernel_tables()
         found = kernels.learn(
-            s, self.rule == "mrs", u, theta0, v0, theta1, v1, self.min_dv,
+            s, self.rule == "mrs", u, theta0, v0, theta1, v1, self.config.learn_min_dv,
+            NOISE_TERMS * self.sensing_noise**2,
             self._w, self._w2, self._th, self._A, self._box, self._joints,
             eps, table_w, eps_out, table_out, self._shape, self._block_centre,
             self._block_radius,

@@ -47,6 +47,15 @@ DEFAULT_T_MAX = 10_000
 #: Trials with |Δv| below this (input units, e.g. pixels) are skipped: the Widrow-Hoff step
 #: divides by |Δv|², and a sensed displacement this small is below any detector's resolution.
 DEFAULT_MIN_DV = 1e-3
+#: Std of a sensed input coordinate's error that the Widrow-Hoff step of A corrects for (input
+#: units): 0 is the published step.
+DEFAULT_SENSING_NOISE = 0.0
+#: Sightings whose errors enter a trial's Widrow-Hoff step in the mean (e1 once, e0 twice: in
+#: the sensed Δv and, through the fine move that corrected it, in Δθ): the 3 of 3σ².
+NOISE_TERMS = 3
+#: With ``sensing_noise`` σ on, trials with |Δv| below this many σ are skipped too: the
+#: correction 3σ²/|Δv|² then stays below 0.12 (smaller Δv made it diverge; docs/decisions.md).
+NOISE_SKIP = 5
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
 
@@ -85,6 +94,11 @@ class SOMConfig:
         a_init: std of the random start of A_r, as a fraction of mean joint span / mean input
             span (0 = start at A = 0).
         min_dv: trials with |v1 − v0| below this are skipped (input units).
+        sensing_noise: σ, the std of the error of one sensed input coordinate (input units,
+            e.g. pixels): the Widrow-Hoff step of A adds 3σ² A_s to its numerator, undoing the
+            shrinking of A that noise in v0 and v1 causes (errors in variables; 0: the
+            published step). Trials with |Δv| < ``NOISE_SKIP`` σ are then skipped (as below
+            ``min_dv``). Protocol "mrs" only.
         protocol: one of ``PROTOCOLS``: MRS's loop or Brause's own.
         continual: a :class:`~learners.som.schedules.Continual` to keep re-adapting after t_max
             when the sensed error rises (None: the standard schedules, floors from t_max on).
@@ -111,6 +125,7 @@ class SOMConfig:
     gamma: Schedule = DEFAULT_GAMMA
     a_init: float = DEFAULT_A_INIT
     min_dv: float = DEFAULT_MIN_DV
+    sensing_noise: float = DEFAULT_SENSING_NOISE
     protocol: str = "mrs"
     continual: Continual | None = None
     recover: bool = False
@@ -143,6 +158,7 @@ class SOMConfig:
                 )
         for name, kind, least in (
             ("input_dim", int, 1), ("t_max", int, 1), ("a_init", float, 0), ("min_dv", float, 0),
+            ("sensing_noise", float, 0),
         ):  # fmt: skip
             value = _number(name, getattr(self, name), kind)
             if value < least:
@@ -158,6 +174,12 @@ class SOMConfig:
             raise ValueError(
                 f"SOMConfig.continual must be a Continual or None, got {self.continual!r}"
             )
+
+    @property
+    def learn_min_dv(self) -> float:
+        """Trials with |v1 − v0| below this are not learned: ``min_dv``, or ``NOISE_SKIP`` σ
+        when that is larger (``sensing_noise``)."""
+        return max(self.min_dv, NOISE_SKIP * self.sensing_noise)
 
     @staticmethod
     def _schedule(name: str, value: Any) -> Schedule:
@@ -209,6 +231,8 @@ class SOMConfig:
             out["continual"] = asdict(self.continual)
         if self.recover:  # absent when off: maps without it keep their files
             out["recover"] = True
+        if self.sensing_noise:  # absent when 0, as recover
+            out["sensing_noise"] = self.sensing_noise
         return out
 
     @classmethod
@@ -223,11 +247,12 @@ class SOMConfig:
             "lattice": list, "input_dim": int, "rule": str, "averaging": str, "refine": bool,
             "abar": str, "t_max": int, "schedules": dict, "a_init": (int, float),
             "min_dv": (int, float), "protocol": str, "continual": dict, "recover": bool,
+            "sensing_noise": (int, float),
         }  # fmt: skip
         options: dict[str, Any] = {}
         for key, kind in types.items():
             if key not in entries:
-                if key in _ADDED_LATER or key in ("continual", "recover"):
+                if key in _ADDED_LATER or key in ("continual", "recover", "sensing_noise"):
                     continue
                 raise ValueError(f"config entry {key!r} is missing")
             value = entries[key]

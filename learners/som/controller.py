@@ -24,6 +24,15 @@ Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δv =
                                   neighbourhood of Ritter, Martinetz & Schulten, his [RITT3])
     θ_r += ε' h'_rs (θ* − θ_r),  A_r += ε' h'_rs (A* − A_r),  h' of width σ'  (Brause 3.6, 3.8)
     A* = A_s + (Δθ − A_s Δv) Δv^T / |Δv|²                     (Widrow-Hoff; MRS; Brause 3.10)
+         ``sensing_noise`` = σ > 0 (not in the papers): A* = A_s + ((Δθ − A_s Δv) Δv^T + 3σ² A_s)
+         / |Δv|², errors in variables. The sensed Δv = Δv_true + e1 − e0 holds the errors of
+         the two sightings, and the fine move corrected the sensed error u − v0, so e0 is also
+         in Δθ, as −A e0: at the true A the step's residual is −A (e1 − e0), and its mean
+         product with the sensed Δv is −A (σ² + σ² + σ²) when A inverts the arm's Jacobian (e1
+         once, e0 in the sensing and, through the fine move, in the move). A Widrow-Hoff step
+         on noisy Δv therefore shrinks A towards zero by about 3σ² against the spread of Δv,
+         most where Δv is small (late in training); 3σ² A_s puts that mean back. Trials with
+         |Δv| < 5σ are skipped then: there 3σ²/|Δv|² would grow A faster than it shrinks.
     rule "mrs":    θ* = θ_s + A_s (u − v0)    error sensed after the coarse move (MRS 1989/90)
     rule "brause": θ* = θ1 + A_s (w_s − v1)   error sensed after the fine move (Brause 3.9)
 All targets are computed from the map before the trial's updates. θ_r are then clipped into the
@@ -230,6 +239,7 @@ class VisuomotorSOM(CompiledPath, Learner):
     gamma = _option("gamma")
     a_init = _option("a_init")
     min_dv = _option("min_dv")
+    sensing_noise = _option("sensing_noise")
     protocol = _option("protocol")  # the learner interface's protocol: the strategy chosen from it
     continual = _option("continual")
     recover = _option("recover")  # the learner interface's recover: ask for recovery_move
@@ -567,7 +577,8 @@ class VisuomotorSOM(CompiledPath, Learner):
         Returns:
             True if the map learned; False if the trial was skipped and counted in ``skipped``:
             "not_visible" when v0 or v1 holds NaN/inf (a marker not seen), "small_dv" when
-            |v1 − v0| < ``min_dv``. Only learned trials advance t.
+            |v1 − v0| < ``min_dv`` (or 5σ with ``sensing_noise``). Only learned trials
+            advance t.
         Raises:
             ValueError: u not finite or not (D,), θ0/θ1 not finite or not (J,), v0/v1 not
                 (D,), or any of them far outside the input box or joint ranges
@@ -597,7 +608,8 @@ class VisuomotorSOM(CompiledPath, Learner):
             return False
         dv = v1 - v0  # (D,)
         dv2 = float(dv @ dv)
-        if dv2 < self.min_dv * self.min_dv:
+        least = self._config.learn_min_dv
+        if dv2 < least * least:
             self.skipped["small_dv"] += 1
             return False
         if self._monitor is not None:

@@ -240,6 +240,7 @@ def learn(
     theta1: np.ndarray,
     v1: np.ndarray,
     min_dv: float,
+    noise_term: float,
     w: np.ndarray,
     w2: np.ndarray,
     theta: np.ndarray,
@@ -255,8 +256,8 @@ def learn(
     block_radius: np.ndarray,
 ) -> int:
     """One trial's learning step in place around winner s (s < 0: search it), from the targets
-    θ* ("mrs": θ_s + A_s(u − v0), else θ1 + A_s(w_s − v1)) and A* = A_s + (Δθ − A_s Δv)Δv^T/|Δv|²,
-    both taken before the update;
+    θ* ("mrs": θ_s + A_s(u − v0), else θ1 + A_s(w_s − v1)) and A* = A_s + (Δθ − A_s Δv)Δv^T/|Δv|²
+    (+ ``noise_term`` A_s / |Δv|² when it is > 0, ``sensing_noise``), both taken before the update;
     h = table_w[d²], h' = table_out[d²] (``Lattice.weights``: cut-off r² = len − 2).
 
     The inputs are checked first: u, v0, v1 against the input box ``box`` (2, D), θ0, θ1
@@ -291,6 +292,8 @@ def learn(
         res = (theta1[j] - theta0[j]) - res
         for d in range(D):
             a_star[j, d] = A[s, j, d] + res * (dv[d] / dv2)
+            if noise_term > 0:
+                a_star[j, d] += (noise_term / dv2) * A[s, j, d]
     index, dist2 = _sphere(s, len(table_w) - 2, shape)
     for k in range(len(index)):
         r, e = index[k], eps * table_w[dist2[k]]

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from learners.som.config import NOISE_TERMS
 from learners.som.schedules import harmonic
 
 if TYPE_CHECKING:
@@ -118,6 +119,8 @@ class MRS(Protocol):
         else:
             theta_star = theta1 + a_s @ (som._w[s] - v1)
         a_star = a_s + np.multiply.outer((theta1 - theta0) - a_s @ (v1 - v0), dv_n)  # (J, D)
+        if som.sensing_noise > 0:  # errors in variables: undo the shrinking (controller.py)
+            a_star += (NOISE_TERMS * som.sensing_noise**2 * float(dv_n @ dv_n)) * a_s
         self._update(som, s, u, theta_star, a_star, eps, sigma, eps_out, sigma_out)
 
     @staticmethod
