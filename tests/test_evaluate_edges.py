@@ -88,6 +88,20 @@ def test_a_plain_map_as_run_points_to_controller(trained, tmp_path):
     assert not (tmp_path / "e").exists()
 
 
+def test_compare_takes_a_run_folder_and_refuses_a_bad_one_in_one_line(trained, tmp_path):
+    """``--compare RUN`` is the run's map: the same map twice gives the same row twice."""
+    run = trained[0]
+    args = ["--run", run, "--targets", "3", "--fine-moves", "1", "--no-plots"]
+    result = _script("evaluate", *args, "--compare", run, "--out", tmp_path / "e")
+    assert result.returncode == 0, result.stderr
+    rows = [line.split() for line in result.stdout.splitlines() if "mrs+" in line]
+    # the same errors and completion; the column before the last is time per query
+    assert len(rows) == 2 and rows[0][:-2] + rows[0][-1:] == rows[1][:-2] + rows[1][-1:]
+    for bad, message in (("nonsense", "got 'nonsense'"), (tmp_path / "no", "does not exist")):
+        line = _one_line_error(_script("evaluate", *args, "--compare", bad))
+        assert "argument --compare" in line and message in line
+
+
 # -- the metrics log -----------------------------------------------------------------------------
 
 

@@ -28,6 +28,7 @@ from envs.cli.controllers import (
     SPECS,
     Ticking,
     check_task,
+    controller_spec,
     make_controller,
     run_folder,
 )
@@ -55,8 +56,18 @@ def main(argv: list[str] | None = None) -> dict:
         type=run_folder,
         help="a train.py run folder (som.npz, metrics.jsonl) or its som.npz",
     )
-    p.add_argument("--controller", help=f"instead of --run: {SPECS}; on PumaGrasp-v0: {POSE_SPECS}")
-    p.add_argument("--compare", nargs="*", default=[], help="more controllers, as --controller")
+    p.add_argument(
+        "--controller",
+        type=controller_spec,
+        help=f"instead of --run: {SPECS}; on PumaGrasp-v0: {POSE_SPECS}",
+    )
+    p.add_argument(
+        "--compare",
+        nargs="*",
+        type=controller_spec,
+        default=[],
+        help="more controllers, as --controller",
+    )
     p.add_argument("--env", choices=REACH_ENV_IDS + GRASP_ENV_IDS, help="default: the run's env")
     p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
     p.add_argument("--control", choices=CONTROL_MODES, help="default: the run's")
