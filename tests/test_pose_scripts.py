@@ -114,3 +114,15 @@ def test_reach_map_options_on_a_pose_map_are_one_line_errors(run, tmp_path):
     result = run_script("evaluate", "--run", str(run), "--no-refine", "--targets", "2",
                         "--out", str(tmp_path))  # fmt: skip
     assert "hierarchical map of PumaGrasp-v0 has none" in one_line_error(result)
+
+
+def test_the_rl_comparison_trains_the_pose_map_on_the_pose_env():
+    """compare_rl's map method on PumaGrasp-v0 builds the hierarchical map, and its held-out
+    ground-truth distance falls with the budget (the env's distances, not the map's own)."""
+    from envs.studies.rl_comparison import train_map
+
+    kwargs = {"sensing": "project", "control": "kinematic"}
+    # 6 144 env steps: one training trial (two moves) per leaf of the default 3 072-leaf map
+    curve = train_map("PumaGrasp-v0", kwargs, seed=0, budget=6144, points=[2, 6144], targets=30)
+    assert curve.steps[0] <= 4 and curve.steps[-1] >= 6144
+    assert curve.mean_m[-1] < 0.1 * curve.mean_m[0], curve.mean_m

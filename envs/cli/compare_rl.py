@@ -21,6 +21,7 @@ from pathlib import Path
 
 import envs  # noqa: F401  (GL back-end, registration)
 from envs.cli import common as cli
+from envs.grasp import GRASP_ENV_IDS
 from envs.reach import MAX_EPISODE_STEPS, REACH_ENV_IDS
 from envs.studies import rl_report, rl_runs
 from envs.studies.rl_comparison import METHODS, VARIANTS, Curve, checkpoints
@@ -46,7 +47,9 @@ def import_torch_first():
 
 def main(argv: list[str] | None = None) -> list[Curve]:
     p = cli.parser(__doc__)
-    p.add_argument("--env", nargs="+", choices=REACH_ENV_IDS, default=list(REACH_ENV_IDS))
+    p.add_argument(
+        "--env", nargs="+", choices=REACH_ENV_IDS + GRASP_ENV_IDS, default=list(REACH_ENV_IDS)
+    )
     p.add_argument("--sensing", choices=("project", "render"), default="project")
     p.add_argument("--control", choices=("kinematic", "servo"), default="kinematic")
     p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))

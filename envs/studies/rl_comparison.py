@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 import numpy as np
 
-from envs.harness.training import RunConfig, initial_map
+from envs.harness.training import RunConfig, initial_map, initial_pose_map
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import MAX_EPISODE_STEPS
 
@@ -141,8 +141,9 @@ def evaluate_policy(
 def _distance_now(env: gym.Env) -> float:
     """Ground-truth distance (m) of the env's current state (where a stopped trial stopped)."""
     base = env.unwrapped
-    site = base.model.site(base.spec_robot.sensed[base.joints]).id
-    return math.dist(base.data.mocap_pos[0], base.data.site_xpos[site])
+    # The pose env's object is its own mocap body; a reach env's target is mocap 0.
+    target = base.target_pose()[:3, 3] if hasattr(base, "target_pose") else base.data.mocap_pos[0]
+    return math.dist(target, base.sensed_point())
 
 
 def evaluate_map(
@@ -179,7 +180,7 @@ def train_map(
     env = make_env()
     env.reset(seed=seed)
     config = RunConfig(env=env_id, seed=seed, trials=max(budget // MAP_TRAIN_MOVES, 1))
-    som = initial_map(config, env)
+    som = initial_pose_map(config, env) if config.pose else initial_map(config, env)
     curve, steps = Curve("map", seed, episode_steps=episode_steps), 0
     for point in points:
         start = time.perf_counter()
