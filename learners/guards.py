@@ -5,6 +5,8 @@ pixels) would otherwise pass every NaN check and wreck every neuron it reaches."
 from __future__ import annotations
 
 import math
+import numbers
+from typing import Any
 
 import numpy as np
 
@@ -57,3 +59,26 @@ def positive_int(name: str, value: object) -> int:
     if not (math.isfinite(number) and number >= 1 and number == int(number)):
         raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     return int(number)
+
+
+def option_number(owner: str, name: str, value: Any, kind: type) -> Any:
+    """``value`` as ``kind`` (int or float), else ValueError naming ``owner.name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+        raise ValueError(f"{owner}.{name} must be a finite {kind.__name__}, got {value!r}")
+    if kind is int and value != int(value):
+        raise ValueError(f"{owner}.{name} must be an integer, got {value!r}")
+    return kind(value)
+
+
+def joint_ranges(joint_lower: Any, joint_upper: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) as float arrays (J,), else ValueError: finite, one entry per joint each,
+    lower < upper."""
+    lower = np.array(joint_lower, dtype=float).ravel()
+    upper = np.array(joint_upper, dtype=float).ravel()
+    check_finite(joint_lower=lower, joint_upper=upper)
+    if lower.shape != upper.shape or not np.all(lower < upper):
+        raise ValueError(
+            f"joint_lower {lower} and joint_upper {upper} need one entry per joint "
+            "with lower < upper"
+        )
+    return lower, upper

@@ -14,11 +14,11 @@ or loaded and is not stored with it.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
 from learners.base import PROTOCOLS
+from learners.guards import option_number
 from learners.som.schedules import Continual, Schedule, harmonic
 
 RULES = ("mrs", "brause")
@@ -66,11 +66,7 @@ _ADDED_LATER = {"abar": "local-fit", "protocol": "mrs"}
 
 def _number(name: str, value: Any, kind: type) -> Any:
     """``value`` as ``kind`` (int or float), else ValueError naming the option."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ValueError(f"SOMConfig.{name} must be a finite {kind.__name__}, got {value!r}")
-    if kind is int and value != int(value):
-        raise ValueError(f"SOMConfig.{name} must be an integer, got {value!r}")
-    return kind(value)
+    return option_number("SOMConfig", name, value, kind)
 
 
 @dataclass(frozen=True)

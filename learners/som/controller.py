@@ -101,7 +101,7 @@ from typing import Any
 import numpy as np
 
 from learners.base import Array, Learner, check_pixels
-from learners.guards import InputBox, check_finite
+from learners.guards import InputBox, check_finite, joint_ranges
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.som import kernels, recovery
 from learners.som.compiled_path import PRUNED_SEARCH_MIN, CompiledPath
@@ -258,14 +258,7 @@ class VisuomotorSOM(CompiledPath, Learner):
         **options: Any,
     ) -> None:
         self._config = SOMConfig.of(config, **options)
-        self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
-        self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
-        check_finite(joint_lower=self.lower, joint_upper=self.upper)
-        if self.lower.shape != self.upper.shape or not np.all(self.lower < self.upper):
-            raise ValueError(
-                f"joint_lower {self.lower} and joint_upper {self.upper} need one entry per joint "
-                "with lower < upper"
-            )
+        self.lower, self.upper = joint_ranges(joint_lower, joint_upper)  # (J,) each
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         D, J = self.input_dim, self.n_joints
         low = np.zeros(D) if input_low is None else np.array(input_low, dtype=float).ravel()

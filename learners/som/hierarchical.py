@@ -63,7 +63,7 @@ from typing import Any
 import numpy as np
 
 from learners.base import Array, Learner
-from learners.guards import InputBox, check_finite
+from learners.guards import InputBox, check_finite, joint_ranges
 from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.pose_pixels import PIXELS, check_pose_pixels
 from learners.som.hierarchical_config import HierarchicalConfig
@@ -112,14 +112,7 @@ class HierarchicalSOM(Learner):
         **options: Any,
     ) -> None:
         self.config = HierarchicalConfig.of(config, **options)
-        self.lower = np.array(joint_lower, dtype=float).ravel()  # (J,)
-        self.upper = np.array(joint_upper, dtype=float).ravel()  # (J,)
-        check_finite(joint_lower=self.lower, joint_upper=self.upper)
-        if self.lower.shape != self.upper.shape or not np.all(self.lower < self.upper):
-            raise ValueError(
-                f"joint_lower {self.lower} and joint_upper {self.upper} need one entry per joint "
-                "with lower < upper"
-            )
+        self.lower, self.upper = joint_ranges(joint_lower, joint_upper)  # (J,) each
         start = np.array(theta_init, dtype=float).ravel()
         check_finite(theta_init=start)
         if start.shape != self.lower.shape or not np.all(

@@ -10,10 +10,10 @@ docstring.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
+from learners.guards import option_number
 from learners.som.schedules import Schedule
 
 #: The schedules of the map, in the order its checkpoint stores them.
@@ -43,13 +43,7 @@ DEFAULT_ORIENTATION_GAIN = 4.0
 
 def _number(name: str, value: Any, kind: type) -> Any:
     """``value`` as ``kind`` (int or float), else ValueError naming the option."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ValueError(
-            f"HierarchicalConfig.{name} must be a finite {kind.__name__}, got {value!r}"
-        )
-    if kind is int and value != int(value):
-        raise ValueError(f"HierarchicalConfig.{name} must be an integer, got {value!r}")
-    return kind(value)
+    return option_number("HierarchicalConfig", name, value, kind)
 
 
 def _shape(name: str, value: Any) -> tuple[int, ...]:
