@@ -141,9 +141,7 @@ def evaluate_policy(
 def _distance_now(env: gym.Env) -> float:
     """Ground-truth distance (m) of the env's current state (where a stopped trial stopped)."""
     base = env.unwrapped
-    # The pose env's object is its own mocap body; a reach env's target is mocap 0.
-    target = base.target_pose()[:3, 3] if hasattr(base, "target_pose") else base.data.mocap_pos[0]
-    return math.dist(target, base.sensed_point())
+    return math.dist(base.data.mocap_pos[base.target_mocap_id], base.sensed_point())
 
 
 def evaluate_map(
