@@ -50,7 +50,7 @@ def figure(rows: list[Row], title: str) -> Figure:
         ax.set_yscale("log")
         ax.set_xticks(per_leaf, [f"{x:g}" for x in per_leaf])
         ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 3.0, 5.0)))
         ax.yaxis.set_major_formatter(ScalarFormatter())
         ax.yaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("training trials per leaf")
