@@ -190,6 +190,7 @@ def test_bad_input_gives_one_line_value_errors(oracle):
         ({"eps": (1.5, 0.1)}, "learning rate in"),
         ({"orientation_gain": 0.0}, "orientation_gain must be > 0"),
         ({"refine": "yes"}, "refine must be True or False"),
+        ({"backtrack": 1}, "backtrack must be True or False"),
         ({"lattice": (3, 3)}, "unknown option"),
     ],
 )
@@ -202,3 +203,46 @@ def test_bad_options_are_one_line_errors(options, message):
 def test_config_round_trips_through_its_dictionary():
     config = HierarchicalConfig.of(position_lattice=(4, 3), eps=(0.5, 0.05), refine=False)
     assert HierarchicalConfig.from_dict(config.to_dict()) == config
+    older = {k: v for k, v in config.to_dict().items() if k != "backtrack"}  # saved before it
+    assert HierarchicalConfig.from_dict(older).backtrack
+
+
+def _feature_jacobian(som, oracle, theta, h=1e-6):
+    """∂f/∂θ (12, 6) of the hand's features by central differences."""
+    columns = []
+    for j in range(6):
+        step = np.zeros(6)
+        step[j] = h
+        plus, minus = (som.features(oracle.hand_pixels(theta + s)) for s in (step, -step))
+        columns.append((plus - minus) / (2 * h))
+    return np.stack(columns, axis=1)
+
+
+@pytest.mark.parametrize("backtrack", [False, True])
+def test_backtracking_turns_overshooting_fine_moves_into_converging_ones(oracle, backtrack):
+    """A = 2.6 (∂f/∂θ)⁺: every full fine step overshoots by 1.6× (the errors grow); a
+    backtracked one, from the best pose with half the step, overshoots by 0.3× (they fall)."""
+    som = _one_leaf(oracle, refine=False, backtrack=backtrack)
+    som.A[0, 0] = 2.6 * np.linalg.pinv(_feature_jacobian(som, oracle, READY))
+    u = oracle.hand_pixels(READY + np.array([0.004, -0.003, 0.002, 0.01, -0.008, 0.006]))
+    f = som.features(u)
+    theta = som.act(u)
+    errors = []
+    for _ in range(10):
+        fv = som.features(oracle.hand_pixels(theta))
+        errors.append(np.linalg.norm(f - fv))
+        theta = som.act(u, oracle.hand_pixels(theta))
+    if backtrack:
+        assert errors[-1] < 1e-3 * errors[0]
+    else:
+        assert errors[-1] > 10 * errors[0]
+
+
+def test_backtracking_copy_keeps_what_the_map_learned(oracle):
+    som = _map()
+    _train(som, oracle, 200)
+    plain = som.with_fine_moves(refine=True, backtrack=False)
+    assert not plain.config.backtrack and som.config.backtrack
+    for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+        np.testing.assert_array_equal(getattr(plain, name), getattr(som, name))
+    assert plain.t == som.t and plain.rng.random() == som.rng.random()

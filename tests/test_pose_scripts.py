@@ -111,9 +111,9 @@ def test_grasp_learning_plots_the_tables_means_beside_the_published_rows(tmp_pat
 
 
 def test_reach_map_options_on_a_pose_map_are_one_line_errors(run, tmp_path):
-    result = run_script("evaluate", "--run", str(run), "--no-refine", "--targets", "2",
+    result = run_script("evaluate", "--run", str(run), "--recover", "--targets", "2",
                         "--out", str(tmp_path))  # fmt: skip
-    assert "hierarchical map of PumaGrasp-v0 has none" in one_line_error(result)
+    assert "takes --no-refine and --no-backtrack" in one_line_error(result)
 
 
 def test_the_rl_comparison_trains_the_pose_map_on_the_pose_env():

@@ -89,6 +89,12 @@ def main(argv: list[str] | None = None) -> dict:
         help="SOM fine moves as MRS publish them: the averaged Ā, no Broyden step",
     )
     p.add_argument(
+        "--no-backtrack",
+        action="store_true",
+        help="PumaGrasp-v0: the hierarchical map's fine moves never return to the best pose "
+        "seen (as in the papers)",
+    )
+    p.add_argument(
         "--abar",
         choices=ABAR,
         help="Ā of a SOM's fine moves (default: the map's; --no-refine: average)",
@@ -135,15 +141,20 @@ def main(argv: list[str] | None = None) -> dict:
         controller = make_controller(spec, env, args.seed)
         name = spec
         if isinstance(controller, VisuomotorSOM):
+            if args.no_backtrack:
+                cli.fail("--no-backtrack changes the hierarchical map of PumaGrasp-v0 only")
             controller = controller.with_config(**som_changes(args))
             name = som_name(controller)
         elif isinstance(controller, HierarchicalSOM):
-            if som_changes(args):
+            if args.protocol or args.abar or args.recover:
                 cli.fail(
-                    "--protocol, --no-refine, --abar and --recover change the reach map; the "
-                    "hierarchical map of PumaGrasp-v0 has none of them"
+                    "--protocol, --abar and --recover change the reach map; the hierarchical "
+                    "map of PumaGrasp-v0 takes --no-refine and --no-backtrack"
                 )
-            name = "hierarchical som"
+            refine, backtrack = not args.no_refine, not args.no_backtrack
+            controller = controller.with_fine_moves(refine, backtrack)
+            name = "hierarchical som" + " (no refine)" * (not refine)
+            name += " (no backtrack)" * (not backtrack)
         env.reset(seed=args.seed)  # the same held-out targets for every controller
         result = evaluate_with_bar(env, controller, name, args.targets, args.fine_moves)
         results[name] = result

@@ -27,6 +27,11 @@ Moving (``act``):
               exactly at the goal pose. Ā starts as A_rs; ``refine=True`` (not in the papers,
               as the map's option of that name) lets it take the Broyden step of the previous
               fine move, Ā += (Δθ − ĀΔf) Δf^T / |Δf|², from the second fine move on.
+    backtrack ``backtrack=True`` (not in the papers): when the cameras see the hand no nearer
+              the object after a fine move (|f(u) − f(v)| not below the best of the trial),
+              the next fine move starts again from the best pose seen, with a step halved at
+              every such failure: θ_{k+1} = θ_b + 2^-n Ā (f(u) − f(v_b)). Near the wrist
+              singularity Ā can be far off, and without this a few trials wander off.
 
 Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δf = f(v1) − f(v0):
     w_r'     += ε h_rr' (p − w_r')                                   (Kohonen, position lattice)
@@ -86,6 +91,9 @@ WHITEN_RATE = 0.01
 #: C is regularised by this fraction of its mean eigenvalue (trace / 12) before it is inverted:
 #: Δf spans only the 6 directions the joints move the markers in, so C alone is singular.
 WHITEN_FLOOR = 1e-3
+#: backtrack: a fine move that leaves the sensed feature error |f(u) − f(v)| more than this many
+#: times the trial's best is undone (1.25-3 measured on 1 000 objects: docs/decisions.md).
+BACKTRACK_GROWTH = 1.5
 _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
@@ -179,6 +187,21 @@ class HierarchicalSOM(Learner):
         """The leaves' centres c_rs (M, 12) in feature space."""
         return np.concatenate([self.w_pos[r], self.w_ori[r, s]], axis=-1)
 
+    def with_fine_moves(self, refine: bool, backtrack: bool) -> HierarchicalSOM:
+        """A copy of this map whose fine moves take (or not) the Broyden step and backtrack;
+        what it learned is the same (a copy), and its fine-move memory starts empty."""
+        entries, arrays = self.state()
+        som = HierarchicalSOM(
+            self.lower, self.upper, self.theta[0, 0],
+            HierarchicalConfig.of(self.config, refine=refine, backtrack=backtrack), rng=0,
+        )  # fmt: skip
+        for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+            setattr(som, name, arrays[name].copy())
+        som.t, som.skipped = self.t, dict(self.skipped)
+        som.rng = np.random.Generator(type(self.rng.bit_generator)())
+        som.rng.bit_generator.state = entries["rng_state"]
+        return som
+
     # ----------------------------------------------------------------------------- acting
     def reset(self) -> None:
         """Forget the previous command; the next ``act`` must be a coarse one."""
@@ -186,6 +209,9 @@ class HierarchicalSOM(Learner):
         self._cmd: np.ndarray | None = None  # last command
         self._fv: np.ndarray | None = None  # features sensed before the last fine command
         self._cmd_before: np.ndarray | None = None  # command before the last fine one
+        # backtrack: the best sighting of the trial (|f(u) − f(v)|², command, f(v)), the step
+        self._best: tuple[float, np.ndarray, np.ndarray] | None = None
+        self._step = 1.0
 
     def _broyden(self, dtheta: np.ndarray, df: np.ndarray) -> None:
         """Ā += (Δθ − Ā Δf) Δf^T / |Δf|² from the last two commands and what they gave."""
@@ -218,15 +244,24 @@ class HierarchicalSOM(Learner):
             r, s = (int(i[0]) for i in self.winners(f[None]))
             command = self.theta[r, s] + self.A[r, s] @ (f - self.centre(r, s))
             self._abar = self.A[r, s].copy()
-            self._fv = self._cmd_before = None
+            self._fv = self._cmd_before = self._best = None
+            self._step = 1.0
         else:
             fv = self.features(self._pixels("v", v))
             if self._abar is None or self._cmd is None:
                 raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
             if self._fv is not None and self._cmd_before is not None:
                 self._broyden(self._cmd - self._cmd_before, fv - self._fv)
-            command = self._cmd + self._abar @ (f - fv)
-            self._fv, self._cmd_before = fv, self._cmd
+            base, f_base = self._cmd, fv
+            if self.config.backtrack:
+                error = float((f - fv) @ (f - fv))
+                if self._best is None or error < self._best[0]:
+                    self._best = (error, self._cmd, fv)
+                elif error > BACKTRACK_GROWTH**2 * self._best[0]:  # farther: from the best again
+                    _, base, f_base = self._best
+                    self._step *= 0.5
+            command = base + self._step * (self._abar @ (f - f_base))
+            self._fv, self._cmd_before = f_base, base
             if explore:
                 command = command + self.rng.normal(0.0, self.params()[4], self.n_joints)
         self._cmd = self._clip(command)

@@ -79,6 +79,9 @@ class HierarchicalConfig:
         orientation_gain: weight of the orientation features against the position features.
         refine: correct the fine moves' map between the fine moves of one target (Broyden).
         transport: every leaf learns the winner's θ* moved to its own centre along A*.
+        backtrack: a fine move after which the cameras see the hand no nearer the object (in
+            feature space) is undone: the next one starts again from the best pose seen, with
+            half the step (a trust region on the fine moves; not in the papers).
     Raises:
         ValueError: one line naming the option and what it must be.
     """
@@ -96,6 +99,7 @@ class HierarchicalConfig:
     orientation_gain: float = DEFAULT_ORIENTATION_GAIN
     refine: bool = True
     transport: bool = True
+    backtrack: bool = True
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -124,10 +128,11 @@ class HierarchicalConfig:
             raise ValueError(
                 f"HierarchicalConfig.orientation_gain must be > 0, got {self.orientation_gain}"
             )
-        if not isinstance(self.refine, bool):
-            raise ValueError(
-                f"HierarchicalConfig.refine must be True or False, got {self.refine!r}"
-            )
+        for name in ("refine", "transport", "backtrack"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(
+                    f"HierarchicalConfig.{name} must be True or False, got {getattr(self, name)!r}"
+                )
         for name in SCHEDULES:
             put(name, self._schedule(name, getattr(self, name)))
         for name in ("eps", "eps_out"):
@@ -182,19 +187,24 @@ class HierarchicalConfig:
             "orientation_gain": self.orientation_gain,
             "refine": self.refine,
             "transport": self.transport,
+            "backtrack": self.backtrack,
         }
 
     @classmethod
     def from_dict(cls, entries: dict[str, Any]) -> HierarchicalConfig:
         """The configuration stored by :meth:`to_dict`; ValueError naming an entry that is
-        missing or of the wrong type (a damaged or foreign file)."""
+        missing or of the wrong type (a damaged or foreign file). ``backtrack``, added after
+        the first maps were saved, takes its default when missing."""
         types: dict[str, type | tuple[type, ...]] = {
             "position_lattice": list, "orientation_lattice": list, "image_size": list,
             "t_max": int, "schedules": dict, "min_dv": (int, float),
             "orientation_gain": (int, float), "refine": bool, "transport": bool,
+            "backtrack": bool,
         }  # fmt: skip
         options: dict[str, Any] = {}
         for key, kind in types.items():
+            if key == "backtrack" and key not in entries:
+                continue
             value = entries.get(key)
             if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
                 raise ValueError(f"config entry {key!r} is {value!r}, not of type {kind}")
