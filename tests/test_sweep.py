@@ -2,7 +2,9 @@
 (the cell lock); on a local Ray instance, a 2-cell sweep gives the same table as running the
 cells directly, finished cells are skipped, and a worker killed mid-cell (SIGKILL) is retried
 and resumes to the result of an unbroken sweep; ``--address`` runs the same sweep on a Ray head
-started by ``ray start`` in its own process."""
+started by ``ray start`` in its own process. On the pose task (robot=grasp): the grid's lattices
+and leaves, the one-line refusals, and a small sweep whose rows and figure agree with an
+evaluation of each cell's saved map."""
 
 from __future__ import annotations
 
@@ -20,12 +22,15 @@ import time
 from dataclasses import asdict, replace
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
+from envs.cli import sweep as sweep_cli
+from envs.harness.evaluation import evaluate
 from envs.harness.run_folder import release_lock, take_lock
-from envs.harness.training import METRICS_FILE, RunConfig
+from envs.harness.training import EVAL_SEED_OFFSET, MAP_FILE, METRICS_FILE, RunConfig
 from envs.studies.sweep_grid import (
     ATTEMPTS_FILE,
     CELL_FILE,
@@ -36,6 +41,8 @@ from envs.studies.sweep_grid import (
     expand,
     run_cell,
 )
+from envs.studies.sweep_plots import error_vs_neurons_figure
+from learners.som.hierarchical import HierarchicalSOM
 
 GRID = {"robot": "riacs", "lattice": [3, "4x3x2"], "trials": 1200, "eval_trials": 30}
 GRID.update({"eval_every": 400})
@@ -74,6 +81,46 @@ def test_stopped_trials_keep_their_last_distance():
     np.testing.assert_array_equal(
         errors_all_counted(d), [[3.0, 2.0, 1.0], [5.0, 5.0, 5.0], [4.0, 2.0, 2.0]]
     )
+
+
+def test_pose_cells_take_the_pose_maps_lattices_and_count_leaves_as_neurons():
+    """robot=grasp (= env=PumaGrasp-v0) trains the hierarchical map: its documented default
+    lattices 8x8x6 (position) and 2x2x2 (orientation) unless the grid gives them, never the
+    reach map's 12x7x4; trials_per_neuron counts leaves (position × orientation nodes)."""
+    puma, grasp = expand({"robot": ["puma", "grasp"]})
+    assert (puma.env, puma.lattice, puma.orientation_lattice) == ("PumaReach-v0", (12, 7, 4), None)
+    assert (grasp.env, grasp.lattice, grasp.orientation_lattice) == (
+        "PumaGrasp-v0",
+        (8, 8, 6),
+        (2, 2, 2),
+    )
+    assert expand({"env": "PumaGrasp-v0"}) == [grasp]
+    assert expand({"robot": "grasp", "orientation_lattice": 2}) == [grasp]  # the same cell
+    cells = expand({"robot": "grasp", "lattice": [2, "3x3x2"], "orientation_lattice": [3, "2x2x1"],
+                    "trials": 100, "trials_per_neuron": 2})  # fmt: skip
+    assert [(c.lattice, c.orientation_lattice) for c in cells] == [
+        ((2, 2, 2), (3, 3, 3)), ((2, 2, 2), (2, 2, 1)),
+        ((3, 3, 2), (3, 3, 3)), ((3, 3, 2), (2, 2, 1)),
+    ]  # fmt: skip
+    assert [c.trials for c in cells] == [2 * 8 * 27, 100, 2 * 18 * 27, 2 * 18 * 4]  # ≥ 100
+    names = [cell_name(c) for c in cells]
+    assert len(set(names)) == 4 and names[1].startswith("grasp_2x2x2_2x2x1_")
+
+
+def test_bad_pose_grids_are_refused_in_one_line_before_anything_runs(tmp_path):
+    with pytest.raises(ValueError, match="orientation_lattice is an axis of the pose task only"):
+        expand({"robot": ["puma", "grasp"], "orientation_lattice": 2})
+    with pytest.raises(ValueError, match="rule=local-fit is an option of the reach map"):
+        expand({"robot": "grasp", "rule": ["mrs", "local-fit"]})
+    with pytest.raises(ValueError, match="lattice is written like 12x7x4"):
+        expand({"robot": "grasp", "orientation_lattice": "2-2-2"})
+    argv = ["--grid", "robot=riacs", "--grid", "orientation_lattice=2", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit) as stopped:
+        sweep_cli.main(argv)
+    message = str(stopped.value)
+    assert message.startswith("bad grid: orientation_lattice") and "\n" not in message
+    assert "robot=grasp" in message and "RiacsReach-v0" in message
+    assert not any(tmp_path.iterdir())  # nothing ran, nothing written
 
 
 #: A process that runs one cell and prints its row: run_cell(RunConfig(**argv[1]), argv[2]).
@@ -255,3 +302,47 @@ def test_address_runs_the_sweep_on_a_ray_head_of_its_own(unbroken, tmp_path):
             except ProcessLookupError:
                 pass
             shutil.rmtree(temp, ignore_errors=True)
+
+
+# ----------------------------------------------------------------------------- the pose task
+#: Two tiny pose cells: 8 and 16 leaves, trials raised to 2 per leaf where above 20.
+POSE_GRID = {"robot": "grasp", "lattice": 2, "orientation_lattice": [1, "2x1x1"], "trials": 20,
+             "trials_per_neuron": 2, "eval_trials": 12, "eval_every": 1000}  # fmt: skip
+
+
+def test_pose_sweep_rows_equal_an_evaluation_of_each_cells_saved_map(ray_local, tmp_path):
+    """scripts/sweep.py on the pose task, end to end on Ray: each row's position and
+    orientation errors after every move equal those of the cell's saved map (som.npz loaded as
+    a HierarchicalSOM) evaluated afresh on the same held-out env seed, its neurons are the
+    leaves, and the figure's orientation panels draw the rows' mean orientation errors."""
+    grid = [f"--grid={k}={','.join(map(str, v if isinstance(v, list) else [v]))}"
+            for k, v in POSE_GRID.items()]  # fmt: skip
+    rows = sweep_cli.main([*grid, f"--out={tmp_path}", "--checkpoint-every=10"])
+    assert json.loads((tmp_path / "results.json").read_text()) == rows
+    assert (tmp_path / "error_vs_neurons.png").is_file()
+    assert [(r["robot"], r["neurons"], r["trials"]) for r in rows] == [
+        ("grasp", 8 * 1, 20), ("grasp", 8 * 2, 32)
+    ]  # fmt: skip
+    for row in rows:
+        som = HierarchicalSOM.load(tmp_path / "cells" / row["cell"] / MAP_FILE)
+        assert som.n_leaves == row["neurons"] and som.t == row["learned_trials"]
+        env = gym.make("PumaGrasp-v0", sensing=row["sensing"], control=row["control"],
+                       width=row["width"], height=row["height"])  # fmt: skip
+        env.reset(seed=row["seed"] + EVAL_SEED_OFFSET)
+        try:
+            result = evaluate(env, som, row["eval_trials"], row["fine_moves"])
+        finally:
+            env.close()
+        degrees, mm = np.degrees(result.orientation_errors), result.distances * 1e3  # (n, 3)
+        assert degrees.shape == (POSE_GRID["eval_trials"], 3) and np.all(np.isfinite(degrees))
+        for name, stat in (("mean", np.mean), ("median", np.median)):
+            np.testing.assert_allclose(row[f"{name}_deg"], stat(degrees, axis=0), atol=1e-5)
+            np.testing.assert_allclose(row[f"{name}_mm"], stat(mm, axis=0), atol=1e-5)
+        np.testing.assert_allclose(row["p90_deg"], np.percentile(degrees, 90, axis=0), atol=1e-5)
+        assert row["mean_deg"][2] < row["mean_deg"][0]  # the fine moves turn the hand closer
+    panels = [ax for ax in error_vs_neurons_figure(rows).axes if "orientation" in ax.get_ylabel()]
+    assert len(panels) == 3  # one per move
+    for move, ax in enumerate(panels):
+        line = next(li for li in ax.get_lines() if li.get_label().startswith("robot=grasp"))
+        np.testing.assert_array_equal(line.get_xdata(), [8, 16])
+        np.testing.assert_allclose(line.get_ydata(), [r["mean_deg"][move] for r in rows])

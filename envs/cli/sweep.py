@@ -4,9 +4,15 @@
         --grid seed=0,1 --grid trials=1000 --out runs/sweep
     .venv/bin/python scripts/sweep.py --spec sweep.yaml --out runs/sweep      # the grid in a file
     .venv/bin/python scripts/sweep.py --spec sweep.yaml --address HEAD:6379   # on a Ray cluster
+    .venv/bin/python scripts/sweep.py --grid robot=grasp --grid lattice=3,4,6 \\
+        --grid orientation_lattice=1,2 --grid trials_per_neuron=2 --out runs/grasp-sweep   # pose
 
-Axes: robot (riacs, puma) and every training setting of scripts/train.py (lattice as 12x7x4
-or n for n×n×n, rule, refine, sensing, control, image_size as 640x480, trials, seed, ...).
+Axes: robot (riacs, puma, or grasp for the pose task PumaGrasp-v0; or env) and every training
+setting of scripts/train.py (lattice as 12x7x4 or n for n×n×n, rule, refine, sensing, control,
+image_size as 640x480, trials, seed, ...), plus trials_per_neuron k (trials at least k·N).
+On grasp, lattice is the hierarchical map's position lattice (default 8x8x6) and
+orientation_lattice the one nested at every node (default 2x2x2); N counts the leaves, and the
+rows add the orientation error in degrees (mean_deg, median_deg, p90_deg after each move).
 A spec file (JSON or YAML) maps axes to a value or a list of values; --grid adds to it.
 Writes OUT/cells/<cell>/ (run folders), OUT/results.csv, OUT/results.json and
 OUT/error_vs_neurons.png. Run it again to finish or extend a sweep: finished cells are skipped.

@@ -2,12 +2,18 @@
 (``envs.harness.training.Trainer``) plus its held-out evaluation, one row per cell in a results
 table.
 
-A grid maps each :class:`~envs.harness.training.RunConfig` field (plus ``robot``, "riacs" or
-"puma", for ``env``) to one value or a list of values; the cells are all combinations. ``lattice``
-values are "12x7x4" or one size n for an n×n×n cube; ``image_size`` values are WIDTHxHEIGHT,
-"640x480" (or give ``width`` and ``height``). Each cell lives in ``OUT/cells/<name>/``, its
-name made of its values and a hash of its whole configuration, so a cell is found again by
-any sweep that contains it:
+A grid maps each :class:`~envs.harness.training.RunConfig` field (plus ``robot``, the short name
+of ``env``: "riacs", "puma" or "grasp" for the pose task PumaGrasp-v0) to one value or a list of
+values; the cells are all combinations. ``lattice`` and ``orientation_lattice`` values are
+"12x7x4" or one size n for an n×n×n cube; ``image_size`` values are WIDTHxHEIGHT, "640x480" (or
+give ``width`` and ``height``). A pose cell trains the hierarchical map: ``lattice`` is its
+position lattice and ``orientation_lattice`` the one nested at every position node, each the
+map's default (``HierarchicalConfig``) unless the grid gives it; its neurons are the map's leaves
+(position × orientation nodes), which ``trials_per_neuron`` counts too. The reach map's options
+and ``orientation_lattice`` are refused in a grid whose envs they do not fit.
+
+Each cell lives in ``OUT/cells/<name>/``, its name made of its values and a hash of its whole
+configuration, so a cell is found again by any sweep that contains it:
 
     som.npz, metrics.jsonl                 the run folder (resumable, as ``train.py`` writes)
     attempts.jsonl                         one line per attempt: worker pid, starting trial
@@ -19,7 +25,9 @@ same OUT, or a task Ray retries while the first attempt still runs, waits for it
 finds the cell finished (or resumes it from its checkpoint if the first attempt died).
 
 Results rows count all held-out trials: a trial that stopped because a marker was not seen
-keeps the distance where it stopped in every later column.
+keeps the distance where it stopped in every later column. A pose cell's row also gives the
+hand's orientation error after each move (``mean_deg``, ``median_deg``, ``p90_deg``, degrees),
+counted the same way.
 """
 
 from __future__ import annotations
@@ -37,17 +45,28 @@ from typing import Any
 
 import numpy as np
 
-from envs.harness.evaluation import evaluate
+from envs.grasp import GRASP_ENV_IDS
+from envs.harness.evaluation import Evaluation, evaluate
 from envs.harness.run_folder import locked, write_json
-from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, Trainer, check_env_image_size
+from envs.harness.training import (
+    EVAL_SEED_OFFSET,
+    REACH_ONLY,
+    RunConfig,
+    Trainer,
+    check_env_image_size,
+)
 from envs.sizes import format_lattice, parse_lattice, parse_size
 from learners.persistence import CheckpointError
+from learners.som.hierarchical_config import HierarchicalConfig
 
-ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0"}
+ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0", "grasp": "PumaGrasp-v0"}
+#: The pose cells' lattices unless the grid gives them: the hierarchical map's defaults.
+_POSE_MAP = HierarchicalConfig()
 CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
 LOCK_SUFFIX = ".lock"
 #: The axes shown in a cell's folder name (the hash covers everything else).
-NAME_AXES = ("robot", "lattice", "rule", "protocol", "refine", "sensing", "control", "seed")
+NAME_AXES = ("robot", "lattice", "orientation_lattice", "rule", "protocol", "refine", "sensing",
+             "control", "seed")  # fmt: skip
 
 
 def _fields() -> dict[str, Any]:
@@ -65,7 +84,7 @@ def parse_value(axis: str, value: Any) -> Any:
     if axis == "image_size":
         return parse_size(value)
     default = _fields()[axis]
-    if axis == "lattice":
+    if axis in ("lattice", "orientation_lattice"):
         return (int(value),) * 3 if str(value).isdigit() else parse_lattice(value)
     if isinstance(default, bool):
         if str(value).lower() not in ("true", "false", "1", "0"):
@@ -77,7 +96,8 @@ def parse_value(axis: str, value: Any) -> Any:
 def expand(grid: dict[str, Any]) -> list[RunConfig]:
     """All cells of ``grid`` (axis -> value or list of values), in a fixed order.
 
-    ``trials_per_neuron`` k (one value) raises each cell's trials to at least k·N."""
+    ``trials_per_neuron`` k (one value) raises each cell's trials to at least k·N, N the cell's
+    :func:`neurons`."""
     grid = dict(grid)
     per_neuron = grid.pop("trials_per_neuron", 0)
     if isinstance(per_neuron, list):
@@ -94,17 +114,54 @@ def expand(grid: dict[str, Any]) -> list[RunConfig]:
     if "image_size" in grid and {"width", "height"} & set(grid):
         raise ValueError("give the image size as image_size (640x480) or width and height")
     axes = {k: v if isinstance(v, list) else [v] for k, v in grid.items()}
-    values = [[parse_value(k, v) for v in vs] for k, vs in axes.items()]
-    names = ["env" if k == "robot" else k for k in axes]
-    configs = [_config(dict(zip(names, c, strict=True))) for c in itertools.product(*values)]
-    return [
-        replace(c, trials=max(c.trials, round(per_neuron * math.prod(c.lattice)))) for c in configs
-    ]
+    values = {("env" if k == "robot" else k): [parse_value(k, v) for v in vs]
+              for k, vs in axes.items()}  # fmt: skip
+    check_task_axes(values)
+    cells = itertools.product(*values.values())
+    configs = [_config(dict(zip(values, c, strict=True))) for c in cells]
+    return [replace(c, trials=max(c.trials, round(per_neuron * neurons(c)))) for c in configs]
+
+
+def check_task_axes(values: dict[str, list[Any]]) -> None:
+    """ValueError (one line) for an axis that does not fit one of the grid's envs: the nested
+    lattice is the pose map's, the reach map's own options (``REACH_ONLY``) are not the pose
+    map's. ``values`` maps RunConfig fields to their parsed grid values."""
+    default = _fields()
+    envs = values.get("env", [default["env"]])
+    reach = [e for e in envs if e not in GRASP_ENV_IDS]
+    pose = [e for e in envs if e in GRASP_ENV_IDS]
+    if reach and "orientation_lattice" in values:
+        raise ValueError(
+            f"orientation_lattice is an axis of the pose task only (robot=grasp, "
+            f"{', '.join(GRASP_ENV_IDS)}), not of {', '.join(reach)}; sweep the reach arms in a "
+            "grid of their own"
+        )
+    for axis in REACH_ONLY:
+        changed = [v for v in values.get(axis, []) if v != default[axis]]
+        if pose and changed:
+            raise ValueError(
+                f"{axis}={changed[0]} is an option of the reach map; {pose[0]} (robot=grasp) "
+                f"trains the hierarchical map: leave {axis} out or sweep the pose task in a grid "
+                "of its own"
+            )
+
+
+def neurons(config: RunConfig) -> int:
+    """The neurons N of a cell's map: the lattice's nodes, or on a pose env the hierarchical
+    map's leaves (position nodes × orientation nodes), each of which learns its own joints."""
+    if config.pose:
+        nested = config.map_config()
+        return nested.n_positions * nested.n_orientations
+    return math.prod(config.lattice)
 
 
 def _config(values: dict[str, Any]) -> RunConfig:
     """The RunConfig of one cell's values (``image_size`` (width, height) sets both fields),
-    its image size checked against the cameras of its env."""
+    its image size checked against the cameras of its env; a pose cell's lattices are the
+    hierarchical map's defaults unless given (never the reach map's default lattice)."""
+    if values.get("env") in GRASP_ENV_IDS:
+        values.setdefault("lattice", _POSE_MAP.position_lattice)
+        values.setdefault("orientation_lattice", _POSE_MAP.orientation_lattice)
     if "image_size" in values:
         values["width"], values["height"] = values.pop("image_size")
     config = RunConfig(**values)  # ValueError for an env that is not a reach env
@@ -178,12 +235,13 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
     finally:
         trainer.close()
     errors_mm = errors_all_counted(result.distances) * 1e3  # (n, moves)
+    n = neurons(config)
     row = {
         "cell": folder.name,
         **{k: list(v) if isinstance(v, tuple) else v for k, v in config.to_stored().items()},
         "robot": {v: k for k, v in ROBOTS.items()}.get(config.env, config.env),
-        "neurons": som.n_neurons,
-        "n_per_axis": round(som.n_neurons ** (1 / 3), 6),
+        "neurons": n,
+        "n_per_axis": round(n ** (1 / 3), 6),
         "learned_trials": som.t,
         "eval_trials": len(errors_mm),
         "complete_fraction": float(np.mean(np.all(np.isfinite(result.distances), axis=1))),
@@ -193,7 +251,21 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
         "mean_percent_reach": (np.mean(errors_mm, axis=0) / (result.reach * 1e3) * 100)
         .round(6)
         .tolist(),
+        **orientation_columns(result),
         "seconds_last_attempt": round(time.perf_counter() - start, 2),
     }
     write_json(folder / CELL_FILE, row)
     return row
+
+
+def orientation_columns(result: Evaluation) -> dict[str, list[float]]:
+    """Mean, median and 90th percentile of the hand's orientation error (degrees) after each
+    move over all held-out trials, counted as the distances are; empty off the pose envs."""
+    if result.orientation_errors is None:
+        return {}
+    degrees = np.degrees(errors_all_counted(result.orientation_errors))  # (n, moves)
+    return {
+        "mean_deg": np.mean(degrees, axis=0).round(5).tolist(),
+        "median_deg": np.median(degrees, axis=0).round(5).tolist(),
+        "p90_deg": np.percentile(degrees, 90, axis=0).round(5).tolist(),
+    }

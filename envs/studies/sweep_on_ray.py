@@ -11,7 +11,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import math
 import os
 from collections.abc import Callable
 from dataclasses import asdict
@@ -20,7 +19,7 @@ from typing import Any
 
 from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
-from envs.studies.sweep_grid import CELL_FILE, PROGRESS_FILE, cell_name, run_cell
+from envs.studies.sweep_grid import CELL_FILE, PROGRESS_FILE, cell_name, neurons, run_cell
 from learners.persistence import write_atomic
 
 #: Local Ray: this many CPUs (the machine is shared; one cell per CPU).
@@ -93,7 +92,7 @@ def run_sweep(
         start_ray(address, num_cpus)
     try:
         task = ray.remote(num_cpus=1, max_retries=retries)(_cell_task)
-        todo.sort(key=lambda cell: -cell[0].trials * math.prod(cell[0].lattice))  # long first
+        todo.sort(key=lambda cell: -cell[0].trials * neurons(cell[0]))  # long first
         pending = {task.remote(asdict(c), str(f), checkpoint_every): f for c, f in todo}
         failed: list[str] = []
         while pending:
@@ -104,7 +103,8 @@ def run_sweep(
                 folder = pending.pop(ref)
                 try:
                     row = ray.get(ref)
-                    log(f"done {folder.name}: mean mm after each move {row['mean_mm']}")
+                    degrees = f", deg {row['mean_deg']}" if "mean_deg" in row else ""
+                    log(f"done {folder.name}: mean mm after each move {row['mean_mm']}{degrees}")
                 except ray.exceptions.RayError as exc:  # the cell raised, or its workers kept dying
                     failed.append(folder.name)
                     log(f"failed {folder.name} after {retries} retries: {exc}")
