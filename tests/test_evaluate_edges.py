@@ -15,9 +15,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from envs.cli.controllers import Ticking, make_controller, run_folder
+from envs.cli.controllers import make_controller, run_folder
 from envs.cli.evaluate import evaluate_with_bar
-from envs.harness.evaluation import evaluate
+from envs.harness.evaluation import Ticking, evaluate
 from envs.harness.run_folder import read_metrics, truncate_metrics
 from learners.persistence import CheckpointError
 from learners.som.controller import VisuomotorSOM

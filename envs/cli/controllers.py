@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -70,31 +69,6 @@ def run_folder(text: str) -> Path:
             "finished or stopped run"
         )
     return path
-
-
-class Ticking(Controller):
-    """``inner`` that calls ``tick()`` (e.g. a progress bar's ``update``) as each trial starts."""
-
-    def __init__(self, inner: Controller, tick: Callable[[], object]) -> None:
-        self.inner, self._tick = inner, tick
-
-    @property
-    def protocol(self) -> str:
-        return self.inner.protocol
-
-    @property
-    def recover(self) -> bool:
-        return self.inner.recover
-
-    def recovery_move(self, u, attempt):
-        return self.inner.recovery_move(u, attempt)
-
-    def act(self, u, v=None, explore=False):
-        return self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
-
-    def reset(self) -> None:
-        self._tick()
-        self.inner.reset()
 
 
 def make_controller(spec: str, env, seed: int = 0) -> Controller:

@@ -26,7 +26,6 @@ from envs.cli import common as cli
 from envs.cli.controllers import (
     POSE_SPECS,
     SPECS,
-    Ticking,
     check_task,
     controller_spec,
     make_controller,
@@ -35,7 +34,7 @@ from envs.cli.controllers import (
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness import plots
 from envs.harness.checkpoint import read_identity
-from envs.harness.evaluation import Evaluation, evaluate
+from envs.harness.evaluation import Evaluation, Ticking, evaluate
 from envs.harness.run_folder import check_writable, read_metrics, write_json
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES

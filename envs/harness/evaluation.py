@@ -12,6 +12,7 @@ carried forward the same way.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,6 +88,31 @@ class Evaluation:
             out["recovered_trials"] = int((self.recovery_moves > 0).sum())
             out["mean_recovery_moves"] = round(float(self.recovery_moves.mean()), 5)
         return out
+
+
+class Ticking(Controller):
+    """``inner`` that calls ``tick()`` (e.g. a progress bar's ``update``) as each trial starts."""
+
+    def __init__(self, inner: Controller, tick: Callable[[], object]) -> None:
+        self.inner, self._tick = inner, tick
+
+    @property
+    def protocol(self) -> str:
+        return self.inner.protocol
+
+    @property
+    def recover(self) -> bool:
+        return self.inner.recover
+
+    def recovery_move(self, u, attempt):
+        return self.inner.recovery_move(u, attempt)
+
+    def act(self, u, v=None, explore=False):
+        return self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
+
+    def reset(self) -> None:
+        self._tick()
+        self.inner.reset()
 
 
 class _TimedController(Controller):

@@ -1,13 +1,16 @@
 """Stopping a training run on SIGINT (Ctrl-C) or SIGTERM at a point from which it continues
 exactly: the signal is noted, the current trial finishes, and the loop stops at its next check.
-Work that can simply be redone (a held-out evaluation) is abandoned at once instead."""
+Work that can simply be redone (a held-out evaluation) checks before each of its trials and is
+abandoned there.
+
+The handler only notes the signal. A handler that raises can run inside a C library's callback
+into Python (llvmlite's ctypes callbacks while numba compiles or loads its cache): the exception
+is swallowed there and the library is left broken, and the process dies of a segfault."""
 
 from __future__ import annotations
 
 import signal
 import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from types import FrameType
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -28,14 +31,12 @@ class StopRequested(BaseException):
 class SignalStop:
     """Context manager that turns SIGINT and SIGTERM into a noted request.
 
-    ``check()`` raises :class:`StopRequested` once a signal was noted. Inside ``abandonable()``
-    a signal raises it at once (the caller redoes that work later). Outside the main thread
+    ``check()`` raises :class:`StopRequested` once a signal was noted. Outside the main thread
     (where Python cannot catch signals) it installs nothing.
     """
 
     def __init__(self) -> None:
         self.signum: int | None = None
-        self._abandonable = False
         self._previous: dict[int, object] = {}
 
     def __enter__(self) -> SignalStop:
@@ -51,20 +52,7 @@ class SignalStop:
 
     def _handle(self, signum: int, frame: FrameType | None) -> None:
         self.signum = signum
-        if self._abandonable:
-            self._abandonable = False
-            raise StopRequested(signum)
 
     def check(self) -> None:
         if self.signum is not None:
             raise StopRequested(self.signum)
-
-    @contextmanager
-    def abandonable(self) -> Iterator[None]:
-        """``with stop.abandonable(): work()``: a signal stops ``work`` at once."""
-        self._abandonable = True
-        try:
-            self.check()
-            yield
-        finally:
-            self._abandonable = False

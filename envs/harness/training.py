@@ -28,7 +28,7 @@ from envs.harness.checkpoint import (
     unit_identity,
     write_unit,
 )
-from envs.harness.evaluation import evaluate
+from envs.harness.evaluation import Ticking, evaluate
 from envs.harness.run_folder import METRICS_FILE, RunFolder, truncate_metrics
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.trials import learn_from, run_trial
@@ -359,8 +359,7 @@ class Trainer:
         try:
             while True:
                 if self.pending_eval:
-                    with stop.abandonable():
-                        row = self.held_out()
+                    row = self.held_out(stop.check)  # abandoned before a trial on a signal
                     self._log(row)
                     self.pending_eval = False
                     if self.trial == self.config.trials or self.trial % checkpoint_every == 0:
@@ -394,11 +393,13 @@ class Trainer:
                 old = self.running[key]
                 self.running[key] = new if np.isnan(old) else old + RUNNING_WEIGHT * (new - old)
 
-    def held_out(self) -> dict[str, Any]:
-        """Evaluate on the fixed held-out targets (without learning)."""
+    def held_out(self, check: Callable[[], object] | None = None) -> dict[str, Any]:
+        """Evaluate on the fixed held-out targets (without learning); ``check`` is called
+        before every trial (it may raise to abandon the evaluation)."""
         env = self.config.make_env(EVAL_SEED_OFFSET)
+        controller = self.som if check is None else Ticking(self.som, check)
         try:
-            result = evaluate(env, self.som, self.config.eval_trials, self.config.fine_moves)
+            result = evaluate(env, controller, self.config.eval_trials, self.config.fine_moves)
         finally:
             env.close()
             self.som.reset()
