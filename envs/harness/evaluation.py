@@ -90,11 +90,12 @@ class Evaluation:
         return out
 
 
-class Ticking(Controller):
-    """``inner`` that calls ``tick()`` (e.g. a progress bar's ``update``) as each trial starts."""
+class Wrapped(Controller):
+    """A controller that passes everything to ``inner``; subclasses add to ``act`` or
+    ``reset``."""
 
-    def __init__(self, inner: Controller, tick: Callable[[], object]) -> None:
-        self.inner, self._tick = inner, tick
+    def __init__(self, inner: Controller) -> None:
+        self.inner = inner
 
     @property
     def protocol(self) -> str:
@@ -111,36 +112,34 @@ class Ticking(Controller):
         return self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
 
     def reset(self) -> None:
+        self.inner.reset()
+
+
+class Ticking(Wrapped):
+    """``inner`` that calls ``tick()`` (e.g. a progress bar's ``update``) as each trial starts."""
+
+    def __init__(self, inner: Controller, tick: Callable[[], object]) -> None:
+        super().__init__(inner)
+        self._tick = tick
+
+    def reset(self) -> None:
         self._tick()
         self.inner.reset()
 
 
-class _TimedController(Controller):
+class _TimedController(Wrapped):
     """Wraps a controller to time its act() calls."""
 
     def __init__(self, inner: Controller) -> None:
-        self.inner, self.seconds, self.calls = inner, 0.0, 0
-
-    @property
-    def protocol(self) -> str:
-        return self.inner.protocol
-
-    @property
-    def recover(self) -> bool:
-        return self.inner.recover
-
-    def recovery_move(self, u, attempt):
-        return self.inner.recovery_move(u, attempt)
+        super().__init__(inner)
+        self.seconds, self.calls = 0.0, 0
 
     def act(self, u, v=None, explore=False):
         start = time.perf_counter()
-        out = self.inner.act(u, v, explore=True) if explore else self.inner.act(u, v)
+        out = super().act(u, v, explore)
         self.seconds += time.perf_counter() - start
         self.calls += 1
         return out
-
-    def reset(self) -> None:
-        self.inner.reset()
 
 
 def carried_forward(trial: Trial, moves: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

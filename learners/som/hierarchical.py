@@ -195,12 +195,19 @@ class HierarchicalSOM(Learner):
             self.lower, self.upper, self.theta[0, 0],
             HierarchicalConfig.of(self.config, refine=refine, backtrack=backtrack), rng=0,
         )  # fmt: skip
-        for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
-            setattr(som, name, arrays[name].copy())
-        som.t, som.skipped = self.t, dict(self.skipped)
-        som.rng = np.random.Generator(type(self.rng.bit_generator)())
-        som.rng.bit_generator.state = entries["rng_state"]
+        bit_generator = type(self.rng.bit_generator)()
+        bit_generator.state = entries["rng_state"]
+        som._take(arrays, self.t, self.skipped, bit_generator)
         return som
+
+    def _take(
+        self, arrays: dict[str, np.ndarray], t: int, skipped: dict[str, int], bit_generator: Any
+    ) -> None:
+        """Take over a learned state: copies of its arrays, its counts and its generator."""
+        for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+            setattr(self, name, arrays[name].copy())
+        self.t, self.skipped = t, dict(skipped)
+        self.rng = np.random.Generator(bit_generator)
 
     # ----------------------------------------------------------------------------- acting
     def reset(self) -> None:
@@ -408,10 +415,7 @@ class HierarchicalSOM(Learner):
             som = cls(lower, upper, np.clip(arrays["theta"][0, 0], lower, upper), config, rng=0)
             if not np.all((lower <= arrays["theta"]) & (arrays["theta"] <= upper)):
                 raise ValueError("theta lies outside the stored joint ranges")
-            for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
-                setattr(som, name, arrays[name].copy())
-            som.t, som.skipped = t, dict(skipped)
-            som.rng = np.random.Generator(bit_generator)
+            som._take(arrays, t, skipped, bit_generator)
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise CheckpointError(
                 f"{path}: incomplete or inconsistent {KIND} checkpoint ({exc}); restore it from "
