@@ -149,6 +149,34 @@ def test_sac_on_images_with_a_cnn_policy():
     assert result["first_image_stored"]  # SAC seeds the env as this probe does
 
 
+def test_each_variant_reaches_the_sb3_model():
+    """The comparison's variants change what they say and nothing else: γ 0 and γ 0.5 the
+    discount, g2 the gradient steps; every other setting stays RL Zoo's."""
+    result = _child(
+        """
+        import gymnasium as gym
+        from stable_baselines3.common.env_util import make_vec_env
+        from envs.studies.rl_comparison import build_sb3
+
+        kwargs = {"sensing": "project", "control": "kinematic", "normalize": True}
+        seen = {}
+        for variant in ("zoo", "g2", "gamma0.5", "gamma0"):
+            venv = make_vec_env("RiacsReach-v0", n_envs=1, env_kwargs=kwargs)
+            model, _ = build_sb3("sac", variant, venv, seed=0, budget=1000)
+            seen[variant] = [model.gamma, model.gradient_steps, model.batch_size,
+                             model.learning_rate]
+        print(json.dumps(seen))
+        """
+    )
+    zoo = [0.95, 1, 256, 1e-3]  # RL Zoo's her.yml
+    assert result == {
+        "zoo": zoo,
+        "g2": [0.95, 2, 256, 1e-3],
+        "gamma0.5": [0.5, 1, 256, 1e-3],
+        "gamma0": [0.0, 1, 256, 1e-3],
+    }
+
+
 def test_an_interrupted_run_continues_where_it_stopped(tmp_path):
     """A run interrupted while evaluating its 2nd checkpoint (its model already saved), then run
     again: the checkpoints are those of an uninterrupted run, the first two bit for bit (the

@@ -32,11 +32,14 @@ def test_success_fractions_count_the_episodes_below_each_threshold():
 
 def test_run_list_leaves_out_variants_that_do_not_apply():
     specs = rl_runs.run_list(
-        ["RiacsReach-v0"], SETTING, ["map", "sac", "ppo"], ["zoo", "g2", "gamma0.5"], [4, 1],
-        [0, 1], 1000, [500, 1000], 10,
+        ["RiacsReach-v0"], SETTING, ["map", "sac", "ppo"], ["zoo", "g2", "gamma0.5", "gamma0"],
+        [4, 1], [0, 1], 1000, [500, 1000], 10,
     )  # fmt: skip
     names = [(s.episode_steps, s.seed, s.method, s.variant) for s in specs]
-    per_seed = [("map", "zoo"), ("sac", "zoo"), ("sac", "g2"), ("sac", "gamma0.5"), ("ppo", "zoo")]
+    per_seed = [
+        ("map", "zoo"), ("sac", "zoo"), ("sac", "g2"), ("sac", "gamma0.5"), ("sac", "gamma0"),
+        ("ppo", "zoo"),
+    ]  # fmt: skip
     assert names == [(n, seed, *mv) for n in (4, 1) for seed in (0, 1) for mv in per_seed]
     assert str(specs[2].folder) == "RiacsReach-v0_project_kinematic/sac-g2-4move/seed0"
 
@@ -101,7 +104,7 @@ def test_report_from_run_folders_with_success_columns(tmp_path):
     assert_drawn_png(tmp_path / "RiacsReach-v0_project_kinematic.png")
 
 
-def test_figure_has_a_success_row_and_a_panel_per_episode_length():
+def test_figure_has_a_row_per_success_threshold_and_a_panel_per_episode_length():
     success = [{"5mm": [0.0] * 3, "10mm": ten, "20mm": [1.0] * 3} for ten in
                ([0.0, 0.5, 1.0], [0.0, 0.0, 0.5], [0.2, 0.4, 0.6])]  # fmt: skip
     curves = [
@@ -110,7 +113,8 @@ def test_figure_has_a_success_row_and_a_panel_per_episode_length():
         Curve("sac", 0, STEPS, [0.3, 0.2, 0.1], [0.0] * 3, 1.0, "g2", 1, success[2]),
     ]
     fig = rl_report.figure(curves, "t")
-    (top_four, top_one), (low_four, low_one) = np.array(fig.axes).reshape(2, 2)
+    rows = np.array(fig.axes).reshape(4, 2)
+    (top_four, top_one), five, (low_four, low_one), twenty = rows
     assert (
         top_four.get_title() == "t\n4-move episodes" and top_one.get_title() == "t\n1-move episodes"
     )
@@ -118,7 +122,10 @@ def test_figure_has_a_success_row_and_a_panel_per_episode_length():
         "SAC (2 gradient steps / env step, 1 seed)"
     ]
     assert top_one.get_lines()[0].get_linestyle() == "--"  # the variant's style
-    # the success row: the mean over seeds of the 10 mm fractions, by hand
+    # the success rows (5, 10, 20 mm): the mean over seeds of the fractions, by hand
     np.testing.assert_allclose(low_four.get_lines()[0].get_ydata(), [0.0, 0.25, 0.75])
+    np.testing.assert_allclose(five[0].get_lines()[0].get_ydata(), [0.0] * 3)
+    np.testing.assert_allclose(twenty[1].get_lines()[0].get_ydata(), [1.0] * 3)
+    assert [a.get_ylabel() for a in rows[1:, 0]] == [f"share < {t} mm" for t in (5, 10, 20)]
     np.testing.assert_allclose(low_one.get_lines()[0].get_ydata(), [0.2, 0.4, 0.6])
-    assert low_four.get_ylabel() == "share of episodes < 10 mm"
+    assert low_four.get_ylabel() == "share < 10 mm"

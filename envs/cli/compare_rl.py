@@ -69,7 +69,8 @@ def main(argv: list[str] | None = None) -> list[Curve]:
         choices=VARIANTS,
         default=["zoo"],
         help="settings of the SB3 methods: zoo (RL Zoo's), g2 (2 gradient steps per env step), "
-        "gamma0.5; each method runs those that apply to it",
+        "gamma0.5, gamma0 (no bootstrapping: for one-move episodes); each method runs those that "
+        "apply to it",
     )
     p.add_argument(
         "--episode-steps",

@@ -59,16 +59,19 @@ PPO_KWARGS: dict[str, Any] = {
 }
 LEARNING_STARTS, LEARNING_STARTS_FRACTION = 1000, 0.05
 #: One change each to the settings above (``"zoo"``: none), and the methods it applies to:
-#: ``g2`` two gradient steps per env step, ``gamma0.5`` a discount for episodes of a few moves.
+#: ``g2`` two gradient steps per env step, ``gamma0.5`` a discount for episodes of a few moves,
+#: ``gamma0`` no bootstrapping at all (one-move episodes: the reward is the whole return).
 VARIANTS: dict[str, dict[str, Any]] = {
     "zoo": {},
     "g2": {"train_freq": 1, "gradient_steps": 2},
     "gamma0.5": {"gamma": 0.5},
+    "gamma0": {"gamma": 0.0},
 }
 VARIANT_METHODS: dict[str, tuple[str, ...]] = {
     "zoo": METHODS,
     "g2": ("sac_her", "sac", "sac_pixels"),
     "gamma0.5": ("sac_her", "sac"),
+    "gamma0": ("sac_her", "sac"),
 }
 #: Image-based SAC (``sac_pixels``): both camera images (``obs_mode="pixels"``, no joint angles)
 #: and the goal pixels; one NatureCNN per image shared by actor and critic (SB3 then trains it

@@ -35,8 +35,8 @@ LABELS = {
 }
 #: the same in every plot
 COLOURS = {"map": "C0", "sac_her": "C1", "sac": "C3", "ppo": "C2", "sac_pixels": "C4"}
-VARIANT_LABELS = {"g2": "2 gradient steps / env step", "gamma0.5": "γ 0.5"}
-VARIANT_STYLES = {"zoo": "-", "g2": "--", "gamma0.5": "-."}
+VARIANT_LABELS = {"g2": "2 gradient steps / env step", "gamma0.5": "γ 0.5", "gamma0": "γ 0"}
+VARIANT_STYLES = {"zoo": "-", "g2": "--", "gamma0.5": "-.", "gamma0": ":"}
 LEGACY_FILE = "curves.jsonl"  # the comparison's output before runs had folders
 MM, MS = 1e3, 1e3  # m -> mm, s -> ms
 
@@ -160,24 +160,21 @@ def plot(curves: list[Curve], title: str, path: Path) -> Path:
     return save_figure(figure(curves, title), path, bbox_inches=None)
 
 
-SUCCESS_PLOTTED = 0.010  # m: the success curve drawn under the distances
-
-
 def figure(curves: list[Curve], title: str) -> Figure:
     """Mean final distance vs env steps, log-log: one line per method and variant (the mean over
     its seeds, one point per checkpoint; variants in other line styles), the band the range of
     the seeds, and a dotted line per threshold; one panel per episode length when there are
-    several. Curves with success fractions get a second row: the fraction of episodes below
-    ``SUCCESS_PLOTTED``, mean over seeds."""
+    several. Curves with success fractions get a row under it per success threshold: the share
+    of episodes below it, mean over seeds."""
     lengths = sorted({c.episode_steps for c in curves}, reverse=True)
-    rows = 2 if all(c.success for c in curves) else 1
+    rates = SUCCESS_THRESHOLDS if all(c.success for c in curves) else ()
     fig, axes = plt.subplots(
-        rows,
+        1 + len(rates),
         len(lengths),
-        figsize=(6.4 * len(lengths), 4.2 + 2.4 * (rows - 1)),
+        figsize=(6.4 * len(lengths), 4.2 + 1.5 * len(rates)),
         sharex="col",
         squeeze=False,
-        gridspec_kw={"height_ratios": [1.75, 1][:rows]},
+        gridspec_kw={"height_ratios": [2.4] + [1] * len(rates)},
     )
     for col, length in enumerate(lengths):
         ax = axes[0][col]
@@ -191,9 +188,9 @@ def figure(curves: list[Curve], title: str) -> Figure:
             if len(runs) > 1:
                 ax.fill_between(steps, mm.min(axis=0), mm.max(axis=0), color=line["color"],
                                 alpha=0.2)  # fmt: skip
-            if rows == 2:
-                rate = np.mean([c.success[success_key(SUCCESS_PLOTTED)] for c in runs], axis=0)
-                axes[1][col].semilogx(steps, rate, marker="o", ms=3, **line)
+            for row, t in enumerate(rates, start=1):
+                rate = np.mean([c.success[success_key(t)] for c in runs], axis=0)
+                axes[row][col].semilogx(steps, rate, marker="o", ms=3, **line)
         for t in THRESHOLDS:
             ax.axhline(t * MM, color="grey", lw=0.6, ls=":")
         ax.legend(fontsize="small")
@@ -201,9 +198,9 @@ def figure(curves: list[Curve], title: str) -> Figure:
         for a in axes[:, col]:
             a.grid(True, which="both", alpha=0.3)
         axes[-1][col].set_xlabel("environment steps (moves)")
-        if rows == 2:
-            axes[1][col].set_ylim(-0.03, 1.03)
-            axes[1][col].set_ylabel(f"share of episodes < {SUCCESS_PLOTTED * MM:g} mm")
+        for row, t in enumerate(rates, start=1):
+            axes[row][col].set_ylim(-0.03, 1.03)
+            axes[row][col].set_ylabel(f"share < {t * MM:g} mm")
         ax.set_ylabel("mean final distance [mm]")
     fig.tight_layout()
     return fig
