@@ -8,7 +8,7 @@ import pytest
 
 from envs.harness.run_folder import write_json
 from envs.studies import rl_report, rl_runs
-from envs.studies.rl_comparison import Curve
+from envs.studies.rl_comparison import VARIANTS, Curve
 
 from helpers import assert_drawn_png
 
@@ -129,3 +129,17 @@ def test_figure_has_a_row_per_success_threshold_and_a_panel_per_episode_length()
     assert [a.get_ylabel() for a in rows[1:, 0]] == [f"share < {t} mm" for t in (5, 10, 20)]
     np.testing.assert_allclose(low_one.get_lines()[0].get_ydata(), [0.2, 0.4, 0.6])
     assert low_four.get_ylabel() == "share < 10 mm"
+
+
+def test_every_variant_is_tabulated_apart_from_rl_zoos_settings():
+    """A variant's seeds never join the plain method's row, named or not."""
+    assert set(rl_report.VARIANT_LABELS) == set(VARIANTS) - {"zoo"}
+    curves = [Curve("sac", 0, STEPS, [0.3] * 3, [0.3] * 3, 1.0, variant, 1)
+              for variant in (*VARIANTS, "new")]  # fmt: skip
+    assert list(rl_report.group(curves)) == [
+        "SAC (1-move episodes)",
+        "SAC (2 gradient steps / env step, 1-move episodes)",
+        "SAC (γ 0.5, 1-move episodes)",
+        "SAC (γ 0, 1-move episodes)",
+        "SAC (new, 1-move episodes)",
+    ]

@@ -43,7 +43,7 @@ MM, MS = 1e3, 1e3  # m -> mm, s -> ms
 
 def label(curve: Curve) -> str:
     """The method's name, with its variant and episode length when not the defaults."""
-    notes = [VARIANT_LABELS[curve.variant]] if curve.variant in VARIANT_LABELS else []
+    notes = [VARIANT_LABELS.get(curve.variant, curve.variant)] if curve.variant != "zoo" else []
     if curve.episode_steps != MAX_EPISODE_STEPS:
         notes.append(f"{curve.episode_steps}-move episodes")
     text = LABELS.get(curve.method, curve.method)
