@@ -167,14 +167,14 @@ def figure(curves: list[Curve], title: str) -> Figure:
     several. Curves with success fractions get a row under it per success threshold: the share
     of episodes below it, mean over seeds."""
     lengths = sorted({c.episode_steps for c in curves}, reverse=True)
-    rates = SUCCESS_THRESHOLDS if all(c.success for c in curves) else ()
+    success_at = SUCCESS_THRESHOLDS if all(c.success for c in curves) else ()
     fig, axes = plt.subplots(
-        1 + len(rates),
+        1 + len(success_at),
         len(lengths),
-        figsize=(6.4 * len(lengths), 4.2 + 1.5 * len(rates)),
+        figsize=(6.4 * len(lengths), 4.2 + 1.5 * len(success_at)),
         sharex="col",
         squeeze=False,
-        gridspec_kw={"height_ratios": [2.4] + [1] * len(rates)},
+        gridspec_kw={"height_ratios": [2.4] + [1] * len(success_at)},
     )
     for col, length in enumerate(lengths):
         ax = axes[0][col]
@@ -188,7 +188,7 @@ def figure(curves: list[Curve], title: str) -> Figure:
             if len(runs) > 1:
                 ax.fill_between(steps, mm.min(axis=0), mm.max(axis=0), color=line["color"],
                                 alpha=0.2)  # fmt: skip
-            for row, t in enumerate(rates, start=1):
+            for row, t in enumerate(success_at, start=1):
                 rate = np.mean([c.success[success_key(t)] for c in runs], axis=0)
                 axes[row][col].semilogx(steps, rate, marker="o", ms=3, **line)
         for t in THRESHOLDS:
@@ -198,7 +198,7 @@ def figure(curves: list[Curve], title: str) -> Figure:
         for a in axes[:, col]:
             a.grid(True, which="both", alpha=0.3)
         axes[-1][col].set_xlabel("environment steps (moves)")
-        for row, t in enumerate(rates, start=1):
+        for row, t in enumerate(success_at, start=1):
             axes[row][col].set_ylim(-0.03, 1.03)
             axes[row][col].set_ylabel(f"share < {t * MM:g} mm")
         ax.set_ylabel("mean final distance [mm]")
