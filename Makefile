@@ -12,16 +12,69 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-$(VENV)/.installed: pyproject.toml | $(BIN)/python
-	@echo "installing visuomotor and its dependencies into .venv (about 2 minutes)"
-	$(BIN)/python -m pip install --quiet -e ".[dev]"
+# -- Locked installs ------------------------------------------------------------------------------
+# locks/<name>.txt pin every direct and indirect dependency, with hashes, for CPython 3.11 on
+# x86-64 Linux: core (the library alone), dev (core + the test tools), and dev with each optional
+# extra (rl, sweep, docs). `make lock` writes them from pyproject.toml's ranges; `make test`,
+# `make demo` and CI install from them, so a clean clone gets the releases the README's figures
+# were measured with. `pip install .` keeps the ranges (see test-min-versions and test-latest).
+LOCKS := locks
+LOCK_VENV := .venv-lock
+UV_VERSION := 0.13.9
+LOCK_TARGET := --python-version 3.11 --python-platform x86_64-manylinux_2_28
+# Where the rl extra's torch CPU build (torch==...+cpu) is found: this machine keeps it on disk;
+# elsewhere PyTorch's CPU wheel index.
+TORCH_WHEELS ?= /opt/wheels
+PYTEST_ARGS := -q -n 2 --dist loadfile --ignore=tests/test_rl.py  # rl: make test-rl
+
+# pip install from a lock: --require-hashes refuses anything unpinned or altered; the project
+# itself goes in without dependencies (all are locked) and with the lock's setuptools.
+define install_locked
+	$(BIN)/python -m pip install --quiet --require-hashes -r $(LOCKS)/$(1).txt
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $@
+endef
+
+.PHONY: lock test-latest timings
+lock:
+	test -x $(LOCK_VENV)/bin/uv || ($(PYTHON) -m venv $(LOCK_VENV) \
+		&& $(LOCK_VENV)/bin/python -m pip install --quiet uv==$(UV_VERSION))
+	$(LOCK_VENV)/bin/uv pip compile pyproject.toml --quiet --generate-hashes $(LOCK_TARGET) \
+		-o $(LOCKS)/core.txt
+	$(LOCK_VENV)/bin/uv pip compile pyproject.toml --quiet --generate-hashes $(LOCK_TARGET) \
+		--extra dev -o $(LOCKS)/dev.txt
+	for extra in rl sweep docs; do \
+		$(LOCK_VENV)/bin/uv pip compile pyproject.toml --quiet --generate-hashes $(LOCK_TARGET) \
+			--find-links $(TORCH_WHEELS) --extra dev --extra $$extra -o $(LOCKS)/$$extra.txt \
+			|| exit 1; \
+	done
+
+$(VENV)/.installed: $(LOCKS)/dev.txt pyproject.toml | $(BIN)/python
+	@echo "installing visuomotor and its locked dependencies into .venv (about 2 minutes)"
+	$(call install_locked,dev)
 
 demo: $(VENV)/.installed
 	$(BIN)/python scripts/demo.py --out runs/demo
 
 test: $(VENV)/.installed
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile --ignore=tests/test_rl.py  # rl: make test-rl
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+# The newest releases that pyproject.toml's ranges allow, in a venv of its own made anew each
+# time, and the same tests: what next month's user gets, before they meet it.
+LATEST_VENV := .venv-latest
+test-latest:
+	rm -rf $(LATEST_VENV)
+	$(PYTHON) -m venv $(LATEST_VENV)
+	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(LATEST_VENV)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e ".[dev]"
+	$(LATEST_VENV)/bin/python -m pip list --format=freeze | grep -iE \
+		'^(mujoco|numpy|gymnasium|opencv-python-headless|numba|matplotlib|imageio-ffmpeg)=='
+	$(LATEST_VENV)/bin/python -m pytest $(PYTEST_ARGS)
+
+# `make test` and `make demo` on a fresh clone (set-up included), timed, with the machine's
+# cores and load: writes docs/timings.md, which the README and docs quote.
+timings:
+	$(PYTHON) scripts/timings.py --out docs/timings.md
 
 # The long fault tests: ten times the signals of the kill test and the damaged checkpoints of
 # the fuzz test in `make test`.
@@ -29,19 +82,17 @@ soak: $(VENV)/.installed
 	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -rP -n 2 tests/test_kill.py tests/test_checkpoint_fuzz.py
 
 # The rl extra (Stable-Baselines3 and torch's CPU build) and its tests.
-$(VENV)/.installed-rl: $(VENV)/.installed
+$(VENV)/.installed-rl: $(VENV)/.installed $(LOCKS)/rl.txt
 	@echo "installing the rl extra (Stable-Baselines3, torch CPU) into .venv (a few minutes)"
-	$(BIN)/python -m pip install --quiet -e ".[dev,rl]"
-	touch $@
+	$(call install_locked,rl)
 
 test-rl: $(VENV)/.installed-rl
 	$(BIN)/python -m pytest -q -rs tests/test_rl.py
 
 # The documentation site (extra "docs"): mkdocs.yml, pages in docs/, built into site/; strict:
 # a broken link, reference or docstring fails the build.
-$(VENV)/.installed-docs: $(VENV)/.installed
-	$(BIN)/python -m pip install --quiet -e ".[dev,docs]"
-	touch $@
+$(VENV)/.installed-docs: $(VENV)/.installed $(LOCKS)/docs.txt
+	$(call install_locked,docs)
 
 docs: $(VENV)/.installed-docs
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
@@ -51,10 +102,9 @@ lint: $(VENV)/.installed
 	$(BIN)/ruff check .
 
 # Sweeps on Ray: the extra "sweep" in the same venv.
-$(VENV)/.sweep: $(VENV)/.installed
+$(VENV)/.sweep: $(VENV)/.installed $(LOCKS)/sweep.txt
 	@echo "installing the sweep extra (Ray) into .venv (a few minutes)"
-	$(BIN)/python -m pip install --quiet -e ".[dev,sweep]"
-	touch $@
+	$(call install_locked,sweep)
 
 test-sweep: $(VENV)/.sweep
 	$(BIN)/python -m pytest -q -rs tests/test_sweep.py
@@ -69,7 +119,7 @@ bench: $(VENV)/.installed
 	$(BIN)/python scripts/bench.py all
 
 clean:
-	rm -rf $(VENV) runs .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(LATEST_VENV) $(MIN_VENV) $(LOCK_VENV) runs .pytest_cache .ruff_cache
 
 # The oldest mujoco and gymnasium that pyproject.toml allows (its ">=" read as "=="), in a venv
 # of its own, with the tests of the envs and the off-screen rendering.

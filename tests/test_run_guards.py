@@ -13,6 +13,8 @@ import pytest
 
 from helpers import SCRIPTS, one_line_error, run_script
 
+#: s: a run starts in seconds on an idle machine; only a hang comes near this on a loaded one.
+HANG_TIMEOUT = 300.0
 TINY = ["--trials", "20", "--lattice", "3x2x2", "--eval-every", "10", "--eval-trials", "3"]
 
 
@@ -30,8 +32,10 @@ def test_a_second_writer_is_refused_and_the_first_stops_cleanly_on_sigterm(tmp_p
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
-        deadline = time.time() + 60
-        while not (tmp_path / "som.npz").exists() and time.time() < deadline:
+        deadline = time.monotonic() + HANG_TIMEOUT
+        while not (tmp_path / "som.npz").exists():
+            if time.monotonic() > deadline or first.poll() is not None:
+                pytest.fail(f"the first run wrote no som.npz in {HANG_TIMEOUT:.0f} s (or ended)")
             time.sleep(0.05)
         second = run_script("train", "--out", str(tmp_path), "--resume")
         assert f"in use by process {first.pid}" in one_line_error(second)
@@ -39,7 +43,7 @@ def test_a_second_writer_is_refused_and_the_first_stops_cleanly_on_sigterm(tmp_p
         assert f"in use by process {first.pid}" in one_line_error(forced)
     finally:
         first.send_signal(signal.SIGTERM)
-        out, _ = first.communicate(timeout=60)
+        out, _ = first.communicate(timeout=HANG_TIMEOUT)
     assert first.returncode == 143 and "stopped by SIGTERM" in out
     assert not (tmp_path / "run.lock").exists()
 
