@@ -74,7 +74,7 @@ test-latest:
 # `make test` and `make demo` on a fresh clone (set-up included), timed, with the machine's
 # cores and load: writes docs/timings.md, which the README and docs quote.
 timings:
-	$(PYTHON) scripts/timings.py --out docs/timings.md
+	$(PYTHON) .ci/timings.py --out docs/timings.md
 
 # The long fault tests: ten times the signals of the kill test and the damaged checkpoints of
 # the fuzz test in `make test`.

@@ -1,6 +1,6 @@
 """Time the README's two commands on a fresh clone, set-up included, and say where they ran.
 
-    python scripts/timings.py --out docs/timings.md    (or: make timings)
+    python .ci/timings.py --out docs/timings.md    (or: make timings)
 
 Clones this checkout's HEAD into a temporary folder, runs ``make test`` and then ``make demo``
 there (each creates and fills its venv from the lock first), and prints a Markdown table with
@@ -8,7 +8,7 @@ the wall time of each, pytest's closing line, the machine's cores and processor,
 average before and after. ``--out`` also writes the table to a file and puts the two times into
 the sentence of the README and of ``docs/getting-started.md`` that quotes them
 (``tests/test_installs.py`` checks that they agree).
-A development tool, not an installed command: it needs git and make.
+A maintainer's tool beside CI's script, not an installed command: it needs git and make.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parent.parent  # .ci/ is one below the checkout
 COMMANDS = ("make test", "make demo")
 QUOTING_PAGES = ("README.md", "docs/getting-started.md")
 QUOTE = re.compile(r"`make demo` took \d+ min \d+ s and `make test` \d+ min \d+ s")
