@@ -25,6 +25,8 @@ LOCK_TARGET := --python-version 3.11 --python-platform x86_64-manylinux_2_28
 # Where the rl extra's torch CPU build (torch==...+cpu) is found: this machine keeps it on disk;
 # elsewhere PyTorch's CPU wheel index.
 TORCH_WHEELS ?= /opt/wheels
+COMPILE = $(LOCK_VENV)/bin/uv pip compile pyproject.toml --quiet --generate-hashes $(LOCK_TARGET) \
+	--find-links $(TORCH_WHEELS)
 PYTEST_ARGS := -q -n 2 --dist loadfile --ignore=tests/test_rl.py  # rl: make test-rl
 
 # pip install from a lock: --require-hashes refuses anything unpinned or altered; the project
@@ -39,14 +41,10 @@ endef
 lock:
 	test -x $(LOCK_VENV)/bin/uv || ($(PYTHON) -m venv $(LOCK_VENV) \
 		&& $(LOCK_VENV)/bin/python -m pip install --quiet uv==$(UV_VERSION))
-	$(LOCK_VENV)/bin/uv pip compile pyproject.toml --quiet --generate-hashes $(LOCK_TARGET) \
-		-o $(LOCKS)/core.txt
-	$(LOCK_VENV)/bin/uv pip compile pyproject.toml --quiet --generate-hashes $(LOCK_TARGET) \
-		--extra dev -o $(LOCKS)/dev.txt
+	$(COMPILE) -o $(LOCKS)/core.txt
+	$(COMPILE) --extra dev -o $(LOCKS)/dev.txt
 	for extra in rl sweep docs; do \
-		$(LOCK_VENV)/bin/uv pip compile pyproject.toml --quiet --generate-hashes $(LOCK_TARGET) \
-			--find-links $(TORCH_WHEELS) --extra dev --extra $$extra -o $(LOCKS)/$$extra.txt \
-			|| exit 1; \
+		$(COMPILE) --extra dev --extra $$extra -o $(LOCKS)/$$extra.txt || exit 1; \
 	done
 
 $(VENV)/.installed: $(LOCKS)/dev.txt pyproject.toml | $(BIN)/python
