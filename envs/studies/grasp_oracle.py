@@ -17,7 +17,13 @@ import numpy as np
 from envs.scene import ArmScene
 from envs.sensing.stereo import CameraPair
 from models.puma560 import BASE_POS, WORKSPACE
-from models.puma560.grasp import marker_points, orientation_angle, sample_grasp_pose
+from models.puma560.grasp import (
+    NARROW,
+    OrientationRange,
+    marker_points,
+    orientation_angle,
+    sample_grasp_pose,
+)
 from models.puma560.kinematics import frames
 
 #: The sensing image of the pose task, px (width, height).
@@ -29,14 +35,21 @@ class PoseOracle:
 
     Args:
         width, height: the sensing image size, px.
+        orientations: the range the targets' orientations are drawn from.
     """
 
-    def __init__(self, width: int = IMAGE_SIZE[0], height: int = IMAGE_SIZE[1]) -> None:
+    def __init__(
+        self,
+        width: int = IMAGE_SIZE[0],
+        height: int = IMAGE_SIZE[1],
+        orientations: OrientationRange = NARROW,
+    ) -> None:
         scene = ArmScene("puma560", 6, width, height)
         self.cameras = CameraPair(scene.stereo.cameras)  # the nominal rig, fixed from here on
         scene.close()
         self.width, self.height = width, height
         self.base = BASE_POS.copy()
+        self.orientations = orientations
 
     def hand_pose(self, theta: np.ndarray) -> np.ndarray:
         """World pose (..., 4, 4) of the hand (DH frame 6) at joints ``theta`` (..., 6)."""
@@ -57,7 +70,7 @@ class PoseOracle:
 
     def targets(self, rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``n`` grasp targets: world poses (n, 4, 4) and the joints (n, 6) that grasp them."""
-        drawn = [sample_grasp_pose(rng, WORKSPACE, self.base) for _ in range(n)]
+        drawn = [sample_grasp_pose(rng, WORKSPACE, self.base, self.orientations) for _ in range(n)]
         return np.stack([d[0] for d in drawn]), np.stack([d[1] for d in drawn])
 
     def errors(self, target: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

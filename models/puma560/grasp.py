@@ -31,6 +31,7 @@ All positions are in metres; the world frame is DH frame 0 shifted by
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -48,12 +49,137 @@ MARKER_OFFSETS = np.array([[0.0, 0.08, 0.02], [0.0, -0.08, 0.02], [0.0, 0.0, 0.1
 #: The markers' colours, in the order of :data:`MARKER_OFFSETS` (the scene's geoms
 #: ``hand_marker_<colour>`` and ``object_marker_<colour>``).
 MARKER_COLOURS = ("red", "green", "blue")
-#: The object's orientation without tilt: the hand's orientation at ``ready`` (world axes).
+#: The hand's orientation at ``ready`` (world axes): the centre of the narrow range.
 NOMINAL_ORIENTATION = frames(READY)[6, :3, :3]
-#: Largest tilt of the object from :data:`NOMINAL_ORIENTATION` (rad), about any axis.
+#: Largest angle of the narrow range (the first releases' only one) from
+#: :data:`NOMINAL_ORIENTATION` (rad), about any axis.
 MAX_TILT = math.radians(30.0)
-#: The branch a learner keeps (right arm, elbow above, wrist flip -1: ``ready``'s branch).
+#: The branch of the narrow range (right arm, elbow above, wrist flip -1: ``ready``'s branch).
 BRANCH = (1, 1, -1)
+#: The arm configuration of every range (right arm, elbow above: ``ready``'s); the wide range
+#: takes ``ready``'s wrist flip where it can, else the other (:func:`grasp_joints`).
+ARM_CONFIGURATION = BRANCH[:2]
+
+
+def _upright(R: np.ndarray) -> np.ndarray:
+    """``R`` turned by the smallest rotation that points its z axis (the approach) straight
+    down, -world z."""
+    z, down = R[:, 2], np.array([0.0, 0.0, -1.0])
+    axis = np.cross(z, down)
+    norm = float(np.linalg.norm(axis))
+    if norm < 1e-15:
+        return np.array(R, dtype=float)
+    return rotvec_to_matrix(axis / norm * math.atan2(norm, float(z @ down))) @ R
+
+
+#: ``NOMINAL_ORIENTATION`` with its approach turned straight down (6.3° away): the wide
+#: range's yaw 0, tilt 0.
+UPRIGHT_ORIENTATION = _upright(NOMINAL_ORIENTATION)
+
+
+@dataclass(frozen=True)
+class OrientationRange:
+    """The orientations objects are drawn from.
+
+    ``kind="yaw_tilt"`` (the default range): the hand upright (:data:`UPRIGHT_ORIENTATION`,
+    approach straight down), turned about the vertical by a yaw uniform in [-yaw, yaw], then its
+    approach tilted from the vertical by an angle uniform over the spherical cap up to ``tilt``
+    (towards a uniform direction). ``kind="ball"``: uniform in the ball of rotations within
+    ``tilt`` of :data:`NOMINAL_ORIENTATION` about any axis (``yaw`` unused, 0): the first
+    releases' range with ``tilt`` = 30°. Angles in radians.
+
+    Spelled for command lines and run files as ``"yaw:90,tilt:45"`` or ``"ball:30"`` (degrees):
+    :meth:`parse` and :meth:`spec`.
+    """
+
+    kind: str = "yaw_tilt"
+    yaw: float = math.radians(90.0)
+    tilt: float = math.radians(45.0)
+
+    def __post_init__(self) -> None:
+        if self.kind not in ORIENTATION_KINDS:
+            raise ValueError(
+                f"orientation range kind {self.kind!r}; valid: {', '.join(ORIENTATION_KINDS)}"
+            )
+        for name, value, most in (("yaw", self.yaw, math.pi), ("tilt", self.tilt, MOST_TILT)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"orientation range {name} must be a number (rad), got {value!r}")
+            if not 0.0 <= value <= most:
+                raise ValueError(
+                    f"orientation range {name} is {math.degrees(value):.4g}°; it must lie in "
+                    f"[0, {math.degrees(most):.4g}]° (the PUMA's wrist reaches no further here)"
+                )
+            object.__setattr__(self, name, float(value))
+        if self.kind == "ball" and self.yaw != 0.0:
+            raise ValueError("a ball orientation range has no yaw; give tilt only ('ball:30')")
+
+    @classmethod
+    def ball(cls, angle: float) -> OrientationRange:
+        """The ball of rotations within ``angle`` (rad) of :data:`NOMINAL_ORIENTATION`."""
+        return cls("ball", 0.0, angle)
+
+    @classmethod
+    def parse(cls, text: str | OrientationRange) -> OrientationRange:
+        """``"yaw:90,tilt:45"`` or ``"ball:30"`` (degrees); an OrientationRange passes through."""
+        if isinstance(text, OrientationRange):
+            return text
+        usage = "give 'yaw:DEG,tilt:DEG' (e.g. 'yaw:90,tilt:45') or 'ball:DEG' (e.g. 'ball:30')"
+        if not isinstance(text, str):
+            raise ValueError(f"orientation range {text!r} is not a string; {usage}")
+        try:
+            parts = dict(part.split(":") for part in text.replace(" ", "").split(","))
+            degrees = {k: float(v) for k, v in parts.items()}
+        except ValueError:
+            raise ValueError(f"orientation range {text!r} cannot be read; {usage}") from None
+        if set(degrees) == {"ball"}:
+            return cls.ball(math.radians(degrees["ball"]))
+        if set(degrees) == {"yaw", "tilt"}:
+            return cls("yaw_tilt", math.radians(degrees["yaw"]), math.radians(degrees["tilt"]))
+        raise ValueError(f"orientation range {text!r} names {sorted(degrees)}; {usage}")
+
+    def spec(self) -> str:
+        """The range as :meth:`parse` reads it (degrees, as short as exact)."""
+
+        def deg(x: float) -> str:
+            return f"{math.degrees(x):.10g}"
+
+        if self.kind == "ball":
+            return f"ball:{deg(self.tilt)}"
+        return f"yaw:{deg(self.yaw)},tilt:{deg(self.tilt)}"
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray:
+        """One orientation (3, 3) drawn from the range with ``rng``."""
+        if self.kind == "ball":
+            axis = rng.normal(size=3)
+            axis /= np.linalg.norm(axis)
+            angle = self.tilt * rng.random() ** (1.0 / 3.0)  # uniform in the ball of rotvecs
+            return rotvec_to_matrix(axis * angle) @ NOMINAL_ORIENTATION
+        yaw = rng.uniform(-self.yaw, self.yaw)
+        azimuth = rng.uniform(0.0, 2.0 * math.pi)
+        tilt = math.acos(1.0 - rng.random() * (1.0 - math.cos(self.tilt)))  # uniform on the cap
+        turn = rotvec_to_matrix(np.array([0.0, 0.0, yaw]))
+        lean = rotvec_to_matrix(tilt * np.array([math.cos(azimuth), math.sin(azimuth), 0.0]))
+        return lean @ turn @ UPRIGHT_ORIENTATION
+
+    def contains(self, R: np.ndarray) -> bool:
+        """Whether orientation ``R`` (3, 3) lies in the range (to 1e-9 rad)."""
+        if self.kind == "ball":
+            return bool(orientation_angle(R, NOMINAL_ORIENTATION) <= self.tilt + 1e-9)
+        tilt = math.acos(min(1.0, max(-1.0, -float(R[2, 2]))))
+        turn = _upright(R) @ UPRIGHT_ORIENTATION.T  # the lean undone: a turn about the vertical
+        yaw = math.atan2(float(turn[1, 0]), float(turn[0, 0]))
+        return tilt <= self.tilt + 1e-9 and abs(yaw) <= self.yaw + 1e-9
+
+
+#: The kinds of :class:`OrientationRange`.
+ORIENTATION_KINDS = ("yaw_tilt", "ball")
+#: rad: the largest tilt a range may ask for (the wrist's bend, joint 5, reaches ±100°; past
+#: 80° from the vertical the approach points sideways and the cameras see the hand edge-on).
+MOST_TILT = math.radians(80.0)
+#: The default range: objects turned any way a hand picking them from a table meets them.
+WIDE = OrientationRange()
+#: The first releases' range: within 30° of the hand's orientation at ``ready``.
+NARROW = OrientationRange.ball(MAX_TILT)
 
 
 def marker_points(pose: np.ndarray) -> np.ndarray:
@@ -98,24 +224,41 @@ def orientation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
     return np.arctan2(np.linalg.norm(w, axis=-1) / 2.0, cos)
 
 
-def sample_grasp_pose(
-    rng: np.random.Generator, wrist_box: BoxWorkspace, base: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """One object pose (4, 4, world) and the joints (6,) that grasp it in :data:`BRANCH`.
+def grasp_joints(T06: np.ndarray, orientations: OrientationRange) -> np.ndarray | None:
+    """The joints (6,) that put frame 6 at ``T06`` (frame 0) in a branch the range allows, or
+    None when no such branch has every joint in range.
 
-    The wrist centre is drawn uniformly from ``wrist_box`` (world), the orientation uniformly
-    from the ball of rotations within :data:`MAX_TILT` of :data:`NOMINAL_ORIENTATION`; a draw
-    whose branch has a joint out of range is drawn again. ``base``: world position of frame 0.
+    The narrow range keeps :data:`BRANCH` only (as the first releases did); the others take
+    :data:`ARM_CONFIGURATION` with ``ready``'s wrist flip where every joint is in range, else
+    with the other flip (poses past the wrist singularity, where joint 4 runs out of range).
+    """
+    narrow = orientations.kind == "ball"
+    flips = (BRANCH[2],) if narrow else (BRANCH[2], -BRANCH[2])
+    for wrist in flips:  # the narrow range as the first releases drew it: no reference
+        theta, valid = pose_ik(T06, *ARM_CONFIGURATION, wrist, reference=None if narrow else READY)
+        if valid:
+            return theta
+    return None
+
+
+def sample_grasp_pose(
+    rng: np.random.Generator,
+    wrist_box: BoxWorkspace,
+    base: np.ndarray,
+    orientations: OrientationRange = NARROW,
+) -> tuple[np.ndarray, np.ndarray]:
+    """One object pose (4, 4, world) and the joints (6,) that grasp it (:func:`grasp_joints`).
+
+    The wrist centre is drawn uniformly from ``wrist_box`` (world), the orientation from
+    ``orientations`` (:meth:`OrientationRange.sample`); a draw that no allowed branch reaches
+    with every joint in range is drawn again. ``base``: world position of frame 0.
     """
     from models.puma560.inverse import D6
 
     while True:
         wrist = wrist_box.sample(rng, 1)[0]
-        axis = rng.normal(size=3)
-        axis /= np.linalg.norm(axis)
-        angle = MAX_TILT * rng.random() ** (1.0 / 3.0)  # uniform in the ball of rotation vectors
-        R = rotvec_to_matrix(axis * angle) @ NOMINAL_ORIENTATION
+        R = orientations.sample(rng)
         tool = wrist + D6 * R[:, 2]
-        theta, valid = pose_ik(homogeneous(R, tool - base), *BRANCH)
-        if valid:
+        theta = grasp_joints(homogeneous(R, tool - base), orientations)
+        if theta is not None:
             return homogeneous(R, tool), theta
