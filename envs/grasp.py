@@ -16,7 +16,12 @@ from envs.robots import ROBOTS, MarkerSet
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.step_info import StepInfo
 from models.puma560 import BASE_POS
-from models.puma560.grasp import marker_points, orientation_angle, sample_grasp_pose
+from models.puma560.grasp import (
+    OrientationRange,
+    marker_points,
+    orientation_angle,
+    sample_grasp_pose,
+)
 from models.workspace import BoxWorkspace
 
 #: The Gymnasium ids of the pose envs (registered in envs/__init__.py).
@@ -80,12 +85,14 @@ class GraspEnv(ReachEnv):
     ## Starting state
     ``reset`` draws the object's pose with ``self.np_random``
     (``models.puma560.grasp.sample_grasp_pose``): the wrist centre uniform in the reach task's
-    workspace box, the orientation within 30° of the hand's at the taught keyframe ``ready``,
-    drawn again until the right-arm, elbow-above branch of the exact pose IK has every joint in
-    range (those joints are :attr:`target_joints`) and the images of the object's three marker
-    spheres lie wholly inside both cameras' images. The arm returns to the keyframe ``home``
-    unless ``reset(options={"keep_arm": True})``; ``reset(options={"perturb": change})`` as in
-    ``ReachEnv`` (a tool change moves the hand's three markers along the tool axis).
+    workspace box, the orientation from ``orientations`` (by default turned up to ±90° about the
+    vertical and its approach tilted up to 45° from it), drawn again until the right-arm,
+    elbow-above configuration of the exact pose IK has every joint in range with ``ready``'s
+    wrist flip or the other (those joints are :attr:`target_joints`) and the images of the
+    object's three marker spheres lie wholly inside both cameras' images. The arm returns to
+    the keyframe ``home`` unless ``reset(options={"keep_arm": True})``;
+    ``reset(options={"perturb": change})`` as in ``ReachEnv`` (a tool change moves the hand's
+    three markers along the tool axis).
 
     ## Episode end
     Never terminates; truncated after ``max_episode_steps`` moves (registered default 4).
@@ -105,6 +112,11 @@ class GraspEnv(ReachEnv):
       ``ReachEnv``; each marker is sensed like the reach task's one (foveated: the hand's
       markers in windows about the object's markers of the same colour).
     - ``control`` (``"servo"``): ``"servo"`` or ``"kinematic"``, as in ``ReachEnv``.
+    - ``orientations`` (``"yaw:90,tilt:45"``): the range of the objects' orientations, an
+      :class:`~models.puma560.grasp.OrientationRange` or its spelling: ``"yaw:Y,tilt:T"``
+      (degrees; the hand upright, turned by up to ±Y about the vertical, its approach tilted by
+      up to T from it; Y ≤ 180, T ≤ 80) or ``"ball:A"`` (within A of the hand's orientation at
+      ``ready`` about any axis; ``"ball:30"`` is the first releases' range).
     - ``success_threshold`` (0.005): metres.
     - ``orientation_threshold`` (0.08726646259971647): radians (5°).
     - ``width`` (320): width of the sensing images in pixels.
@@ -124,6 +136,7 @@ class GraspEnv(ReachEnv):
         self,
         sensing: str = "render",
         control: str = "servo",
+        orientations: str | OrientationRange = "yaw:90,tilt:45",
         success_threshold: float = SUCCESS_THRESHOLD,
         orientation_threshold: float = ORIENTATION_THRESHOLD,
         width: int = IMAGE_WIDTH,
@@ -135,6 +148,8 @@ class GraspEnv(ReachEnv):
         normalize: bool = False,
     ) -> None:
         threshold = arguments.positive_number("orientation_threshold (rad)", orientation_threshold)
+        #: The range the objects' orientations are drawn from.
+        self.orientations = OrientationRange.parse(orientations)
         super().__init__(
             robot="puma560",
             joints=6,
@@ -165,7 +180,9 @@ class GraspEnv(ReachEnv):
         box = self.spec_robot.workspace
         box = BoxWorkspace(box.lower + shift, box.upper + shift)
         while True:
-            pose, self.target_joints = sample_grasp_pose(self.np_random, box, BASE_POS + shift)
+            pose, self.target_joints = sample_grasp_pose(
+                self.np_random, box, BASE_POS + shift, self.orientations
+            )
             if self._in_view(marker_points(pose)):
                 break
         quat = np.empty(4)

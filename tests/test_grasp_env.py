@@ -24,9 +24,17 @@ from envs import grasp
 from envs.goal_env import GoalEnvWrapper
 from envs.grasp import GRASP_ENV_IDS, ORIENTATION_WEIGHT, GraspEnv
 from models.puma560 import ARM_REACH, WORKSPACE
-from models.puma560.grasp import MAX_TILT, NOMINAL_ORIENTATION, marker_points, orientation_angle
+from models.puma560.grasp import (
+    MAX_TILT,
+    NOMINAL_ORIENTATION,
+    UPRIGHT_ORIENTATION,
+    WIDE,
+    marker_points,
+    orientation_angle,
+)
 from models.puma560.inverse import D6
 from models.puma560.kinematics import frames
+from models.rotations import rotvec_to_matrix
 
 
 def _transitions(env: GraspEnv, episodes: int, seed: int) -> list[tuple]:
@@ -169,21 +177,63 @@ def test_move_to_the_exact_ik_joints_grasps_the_object(control):
     env.close()
 
 
-def test_objects_are_reachable_poses_within_the_tilt():
+@pytest.mark.parametrize("orientations", ["yaw:90,tilt:45", "ball:30"])
+def test_objects_are_reachable_poses_within_the_range(orientations):
     """The object's pose: its wrist point (D6 back along its z axis) inside the workspace box,
-    its orientation within MAX_TILT of the nominal; the target joints reach it (DH product)."""
-    env = GraspEnv(sensing="project", control="kinematic")
+    its orientation in the range (the wide one: the approach's angle from the vertical and the
+    turn about it, measured here by hand); the target joints reach it (DH product)."""
+    env = GraspEnv(sensing="project", control="kinematic", orientations=orientations)
     for seed in range(20):
         _, info = env.reset(seed=seed)
         pose = info["target_pose"]
         wrist = pose[:3, 3] - D6 * pose[:3, 2]
         assert WORKSPACE.contains(wrist[None])[0]
-        assert orientation_angle(pose[:3, :3], NOMINAL_ORIENTATION) <= MAX_TILT + 1e-12
+        R = pose[:3, :3]
+        if orientations == "ball:30":
+            assert orientation_angle(R, NOMINAL_ORIENTATION) <= MAX_TILT + 1e-12
+        else:
+            tilt = np.arccos(-R[2, 2])  # the approach (tool z) from straight down
+            assert tilt <= np.radians(45) + 1e-12
+            # The crossbar (tool y) turned about the vertical from its upright direction.
+            upright_y = UPRIGHT_ORIENTATION[:, 1]
+            lean_axis = np.cross(R[:, 2], [0.0, 0.0, -1.0])
+            y_upright = (
+                rotvec_to_matrix(lean_axis / max(np.linalg.norm(lean_axis), 1e-300) * tilt)
+                @ R[:, 1]
+            )
+            yaw = np.arctan2(np.cross(upright_y, y_upright)[2], upright_y @ y_upright)
+            assert abs(yaw) <= np.radians(90) + 1e-9
         tool = frames(env.target_joints)[6]  # frame 0 coordinates
         np.testing.assert_allclose(tool[:3, :3], pose[:3, :3], atol=1e-9)
         assert np.all(env.target_joints >= env.joint_lower)
         assert np.all(env.target_joints <= env.joint_upper)
     env.close()
+
+
+def test_the_wide_range_fills_yaw_and_tilt():
+    """Drawn orientations cover the wide range: yaw to near ±90°, tilt to near 45° (not a cone
+    about the nominal as the ball's)."""
+    rng = np.random.default_rng(0)
+    draws = np.array([WIDE.sample(rng) for _ in range(3000)])
+    tilt = np.degrees(np.arccos(-draws[:, 2, 2]))
+    assert tilt.max() > 43 and np.mean(tilt > 30) > 0.3
+    crossbar = np.degrees(np.arctan2(draws[:, 1, 1], draws[:, 0, 1]))  # tool y's azimuth
+    assert np.ptp(crossbar) > 170  # ±90° of yaw turn the crossbar through 180°
+
+
+@pytest.mark.parametrize(
+    "spelling, message",
+    [
+        ("yaw:90,tilt:85", "tilt is 85°; it must lie in [0, 80]°"),
+        ("yaw:200,tilt:45", "yaw is 200°; it must lie in [0, 180]°"),
+        ("ball:30,yaw:2", "names ['ball', 'yaw']"),
+        ("tilt=45", "cannot be read"),
+    ],
+)
+def test_an_orientation_range_out_of_reach_is_refused_in_one_line(spelling, message):
+    with pytest.raises(ValueError, match=re.escape(message)) as caught:
+        GraspEnv(sensing="project", control="kinematic", orientations=spelling)
+    assert "\n" not in str(caught.value)
 
 
 def test_success_needs_position_and_orientation():

@@ -30,7 +30,8 @@ import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.cli import sweep as sweep_cli
 from envs.harness.evaluation import evaluate
 from envs.harness.run_folder import release_lock, take_lock
-from envs.harness.training import EVAL_SEED_OFFSET, MAP_FILE, METRICS_FILE, RunConfig
+from envs.harness.streams import seed_env
+from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig
 from envs.studies.sweep_grid import (
     ATTEMPTS_FILE,
     CELL_FILE,
@@ -328,7 +329,7 @@ def test_pose_sweep_rows_equal_an_evaluation_of_each_cells_saved_map(ray_local, 
         assert som.n_leaves == row["neurons"] and som.t == row["learned_trials"]
         env = gym.make("PumaGrasp-v0", sensing=row["sensing"], control=row["control"],
                        width=row["width"], height=row["height"])  # fmt: skip
-        env.reset(seed=row["seed"] + EVAL_SEED_OFFSET)
+        seed_env(env, row["seed"], "evaluation")
         try:
             result = evaluate(env, som, row["eval_trials"], row["fine_moves"])
         finally:

@@ -13,6 +13,7 @@ from typing import NoReturn, TypeVar
 from tqdm import tqdm
 
 from envs import sizes
+from models.puma560.grasp import OrientationRange
 
 T = TypeVar("T")
 #: Exit status of a command-line mistake (as argparse uses).
@@ -94,6 +95,11 @@ def _text_type(parse: Callable[[str], T], name: str) -> Callable[[str], T]:
 image_size = _text_type(sizes.parse_size, "WIDTHxHEIGHT")
 #: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`).
 lattice = _text_type(sizes.parse_lattice, "lattice")
+#: ``--orientations yaw:90,tilt:45`` or ``ball:30``: the pose task's range, as its spelling
+#: (:meth:`models.puma560.grasp.OrientationRange.parse`).
+orientation_range = _text_type(
+    lambda text: OrientationRange.parse(text).spec(), "yaw:DEG,tilt:DEG or ball:DEG"
+)
 #: ``--big 40x40x40`` or ``--big none``: a lattice or None.
 lattice_or_none = _text_type(
     lambda text: None if text == "none" else sizes.parse_lattice(text), "lattice or none"

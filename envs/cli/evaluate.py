@@ -36,6 +36,7 @@ from envs.harness import plots
 from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, Ticking, evaluate
 from envs.harness.run_folder import check_writable, read_metrics, write_json
+from envs.harness.streams import seed_env
 from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.sensing.rendering import render_camera
@@ -44,8 +45,8 @@ from learners.som.config import ABAR, PROTOCOLS
 from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
 
-#: Held-out targets come from this seed unless told otherwise (never a training seed offset).
-DEFAULT_SEED = 20_000
+#: The evaluation set (of the evaluation stream, envs.harness.streams) unless told otherwise.
+DEFAULT_SEED = 0
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -72,9 +73,18 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument("--control", choices=CONTROL_MODES, help="default: the run's")
     p.add_argument("--image-size", type=cli.image_size,
                    help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip
+    p.add_argument("--orientations", type=cli.orientation_range,
+                   help="PumaGrasp-v0: the objects' orientation range (default: the run's, else "
+                   "the env's)")  # fmt: skip
     p.add_argument("--targets", type=cli.positive_int, default=1000)
     p.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
-    p.add_argument("--seed", type=cli.nonnegative_int, default=DEFAULT_SEED)
+    p.add_argument(
+        "--seed",
+        type=cli.nonnegative_int,
+        default=DEFAULT_SEED,
+        help="the evaluation set: held-out targets of the evaluation stream, which no training "
+        "run draws for any seed (default: %(default)s)",
+    )
     p.add_argument("--out", type=Path, help="default: RUN/eval or runs/eval")
     p.add_argument("--no-plots", action="store_true")
     p.add_argument(
@@ -133,7 +143,11 @@ def main(argv: list[str] | None = None) -> dict:
     metrics = None  # read before any work, so that a damaged log stops nothing half-way
     if plotted and args.run is not None and (args.run / METRICS_FILE).is_file():
         metrics = read_metrics(check_writable(args.run) / METRICS_FILE)  # its learning curve
-    env = gym.make(env_id, sensing=sensing, control=control, width=width, height=height)
+    orientations = args.orientations or run_config.get("orientations")
+    if orientations is not None and not pose:
+        cli.fail(f"--orientations is for {', '.join(GRASP_ENV_IDS)}, not {env_id}")
+    task = {"orientations": orientations} if orientations is not None else {}
+    env = gym.make(env_id, sensing=sensing, control=control, width=width, height=height, **task)
 
     rows, results = [], {}
     for spec in specs:
@@ -154,14 +168,16 @@ def main(argv: list[str] | None = None) -> dict:
             controller = controller.with_fine_moves(refine, backtrack)
             name = "hierarchical som" + " (no refine)" * (not refine)
             name += " (no backtrack)" * (not backtrack)
-        env.reset(seed=args.seed)  # the same held-out targets for every controller
+        seed_env(env, args.seed, "evaluation")  # the same held-out targets for every one
         result = evaluate_with_bar(env, controller, name, args.targets, args.fine_moves)
         results[name] = result
         rows.append({"controller": name, **result.summary()})
     print(f"{env_id}  sensing={sensing} ({format_size(width, height)})  control={control}  "
-          f"{args.targets} targets, seed {args.seed}")  # fmt: skip
+          f"{args.targets} held-out targets, evaluation set {args.seed}")  # fmt: skip
     print(format_pose_table(rows) if pose else format_table(rows))
     out.mkdir(parents=True, exist_ok=True)
+    if pose:
+        print(f"objects' orientations: {env.unwrapped.orientations.spec()}")
     summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
                "width": width, "height": height,
                "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip

@@ -38,6 +38,7 @@ from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 from learners.persistence import writing
 from learners.som.config import PROTOCOLS, RULES
 from learners.som.hierarchical_config import HierarchicalConfig
+from models.puma560.grasp import WIDE
 
 _POSE_MAP = HierarchicalConfig()
 
@@ -82,6 +83,9 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--orientation-lattice", type=cli.lattice,
                    help=f"PumaGrasp-v0: the lattice nested at every position node (default "
                    f"{nested})")  # fmt: skip
+    p.add_argument("--orientations", type=cli.orientation_range,
+                   help=f"PumaGrasp-v0: the objects' orientation range, 'yaw:DEG,tilt:DEG' or "
+                   f"'ball:DEG' (default {WIDE.spec()}; ball:30: the first releases')")  # fmt: skip
     p.add_argument("--rule", default=d.rule, choices=RULES)
     p.add_argument(
         "--protocol",
@@ -108,8 +112,10 @@ def main(argv: list[str] | None = None) -> Path:
     args = p.parse_args(argv)
     cli.check_image_size(args.env, args.image_size)
     pose_env = args.env in GRASP_ENV_IDS
-    if args.orientation_lattice is not None and not pose_env and not args.resume:
-        cli.fail(f"--orientation-lattice is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
+    for flag in ("orientation_lattice", "orientations"):
+        if getattr(args, flag) is not None and not pose_env and not args.resume:
+            name = "--" + flag.replace("_", "-")
+            cli.fail(f"{name} is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
     if args.lattice is None:
         args.lattice = _POSE_MAP.position_lattice if pose_env else d.lattice
 
@@ -133,6 +139,7 @@ def main(argv: list[str] | None = None) -> Path:
                 sensing_noise=args.sensing_noise,
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
                 orientation_lattice=args.orientation_lattice if pose_env else None,
+                orientations=args.orientations if pose_env else None,
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)
         try:

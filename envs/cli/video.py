@@ -31,6 +31,7 @@ from envs.grasp import GRASP_ENV_IDS
 from envs.harness.film import VIDEO_FPS, TrialFilm, side_by_side
 from envs.harness.grasp_film import GraspFilm
 from envs.harness.run_folder import check_writable
+from envs.harness.streams import seed_env
 from envs.harness.video import VideoWriter
 from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 
@@ -76,7 +77,7 @@ def main(argv: list[str] | None = None) -> Path:
             f"{args.env}  {controller_name(spec, controller)}  sensing={args.sensing}  "
             f"control={args.control}  ({speed})"
         )
-        env.reset(seed=args.seed)
+        seed_env(env, args.seed, "evaluation")  # held-out targets, never trained on
         film = (GraspFilm if pose else TrialFilm)(env, title, args.fps, args.speed)
         runs.append((env, controller, film))
     with VideoWriter(args.out, args.fps) as video:

@@ -6,7 +6,7 @@ A run's seed s names a family of generators, one per purpose, told apart by the 
 | stream | spawn key | draws |
 |---|---|---|
 | ``training`` | () | the training targets: exactly what ``env.reset(seed=s)`` draws |
-| ``evaluation`` | (1,) | held-out targets and objects (``evaluate.py --seed``, a run's held-out rows, videos) |
+| ``evaluation`` | (1,) | held-out targets (``evaluate.py --seed``, held-out rows, videos) |
 | ``validation`` | (2,) | targets on which a setting is chosen by measurement |
 
 A SeedSequence hashes its entropy together with its spawn key, so the streams of different

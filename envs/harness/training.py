@@ -31,6 +31,7 @@ from envs.harness.checkpoint import (
 from envs.harness.evaluation import Ticking, evaluate
 from envs.harness.run_folder import METRICS_FILE, RunFolder, truncate_metrics
 from envs.harness.stopping import SignalStop, StopRequested
+from envs.harness.streams import seed_env
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.robots import ROBOTS
@@ -40,14 +41,13 @@ from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
 from learners.som.hierarchical_config import HierarchicalConfig
+from models.puma560.grasp import NARROW, WIDE, OrientationRange
 
 #: The checkpoint unit is also the run's map file (``VisuomotorSOM.load`` reads it).
 MAP_FILE = CHECKPOINT_FILE
 #: Run settings that ``--resume`` may change: ``trials`` (to go on past the old end; the map's
 #: schedules then stay at their final values). Everything else defines the run.
 RESUMABLE = ("trials",)
-#: The held-out targets come from the env seeded with seed + EVAL_SEED_OFFSET, never trained on.
-EVAL_SEED_OFFSET = 10_000
 #: Targets the cameras see before training, whose pixel box spreads the map's w ...
 INIT_TARGETS = 200
 #: ... drawn with seed + this (neither a training nor a held-out seed).
@@ -63,7 +63,13 @@ _MAP = SOMConfig()
 REACH_ONLY = ("rule", "protocol", "abar", "sensing_noise")
 #: RunConfig fields added after runs and sweep cells were named: left out of a stored or hashed
 #: configuration while they hold these values, so those names and files do not change.
-ADDED_LATER = {"sensing_noise": _MAP.sensing_noise, "orientation_lattice": None}
+ADDED_LATER = {
+    "sensing_noise": _MAP.sensing_noise,
+    "orientation_lattice": None,
+    "orientations": None,
+}
+#: The objects' orientations of a pose run stored before runs recorded them (the 30° ball).
+FIRST_ORIENTATIONS = NARROW.spec()
 
 
 def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int]:
@@ -102,6 +108,9 @@ class RunConfig:
     width: int = IMAGE_WIDTH  # sensing images, px
     height: int = IMAGE_HEIGHT  # px
     orientation_lattice: tuple[int, ...] | None = None  # pose envs only
+    #: pose envs only: the objects' orientation range (``OrientationRange.parse``; None: the
+    #: env's default, stored by its spelling)
+    orientations: str | None = None
 
     def __post_init__(self) -> None:
         """Checks every field, so that a configuration read back from a checkpoint or a sweep
@@ -131,11 +140,15 @@ class RunConfig:
                     f"the reach map's option(s) {', '.join(changed)} do not apply to "
                     f"{self.env}'s hierarchical map; leave them out"
                 )
-        elif self.orientation_lattice is not None:
-            raise ValueError(
-                f"orientation_lattice is for the pose envs ({', '.join(GRASP_ENV_IDS)}), not "
-                f"{self.env}; leave it out"
-            )
+            spelled = WIDE if self.orientations is None else self.orientations
+            object.__setattr__(self, "orientations", OrientationRange.parse(spelled).spec())
+        else:
+            for name in ("orientation_lattice", "orientations"):
+                if getattr(self, name) is not None:
+                    raise ValueError(
+                        f"{name} is for the pose envs ({', '.join(GRASP_ENV_IDS)}), not "
+                        f"{self.env}; leave it out"
+                    )
         self.map_config()  # the map's options, checked by SOMConfig or HierarchicalConfig
 
     @property
@@ -150,6 +163,8 @@ class RunConfig:
         stored = dict(stored)
         if "image_size" in stored:
             stored["height"], stored["width"] = stored.pop("image_size")
+        if stored.get("env") in GRASP_ENV_IDS and "orientations" not in stored:
+            stored["orientations"] = FIRST_ORIENTATIONS
         return cls(**stored)
 
     def to_stored(self) -> dict[str, Any]:
@@ -172,15 +187,23 @@ class RunConfig:
             )
         return SOMConfig.of(**{k: getattr(self, k) for k in MAP_OPTIONS}, t_max=self.trials)
 
-    def make_env(self, seed_offset: int = 0) -> gym.Env:
+    def make_env(self, stream: str = "training") -> gym.Env:
+        """The run's env, drawing its targets from ``stream`` of the run's seed
+        (:mod:`envs.harness.streams`): the training targets, or the held-out ``"evaluation"``
+        ones that training never draws."""
+        pose = {"orientations": self.orientations} if self.pose else {}
         env = gym.make(
             self.env,
             sensing=self.sensing,
             control=self.control,
             width=self.width,
             height=self.height,
+            **pose,
         )
-        env.reset(seed=self.seed + seed_offset)
+        if stream == "training":
+            env.reset(seed=self.seed)  # the runs' first target, as before streams existed
+        else:
+            seed_env(env, self.seed, stream)
         return env
 
 
@@ -396,7 +419,7 @@ class Trainer:
     def held_out(self, check: Callable[[], object] | None = None) -> dict[str, Any]:
         """Evaluate on the fixed held-out targets (without learning); ``check`` is called
         before every trial (it may raise to abandon the evaluation)."""
-        env = self.config.make_env(EVAL_SEED_OFFSET)
+        env = self.config.make_env("evaluation")
         controller = self.som if check is None else Ticking(self.som, check)
         try:
             result = evaluate(env, controller, self.config.eval_trials, self.config.fine_moves)

@@ -19,7 +19,8 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from envs.harness.evaluation import evaluate
-from envs.harness.training import EVAL_SEED_OFFSET, RunConfig, initial_map
+from envs.harness.streams import seed_env
+from envs.harness.training import RunConfig, initial_map
 from envs.harness.trials import learn_from, run_trial
 from envs.studies.recalibrated_oracle import RecalibratedIK
 from learners.baselines.analytic_ik import AnalyticIK
@@ -67,7 +68,7 @@ def pretrain(
     error for the continual mode (which changes nothing before t_max), and its held-out learning
     curve every ``config.run.eval_every`` trials (rows ``{"trial", **summary}``)."""
     run = config.run
-    env, eval_env = run.make_env(), run.make_env(EVAL_SEED_OFFSET)
+    env, eval_env = run.make_env(), run.make_env("evaluation")
     try:
         som = initial_map(run, env, continual=Continual())
         curve = [{"trial": 0, **held_out(eval_env, som, config)}]
@@ -91,7 +92,7 @@ def warm_up(
     that the continual mode's reference is this setting's error. Returns that map and the
     held-out curve at the start and the end (rows ``{"trial", **summary}``, trials counted from
     the map's first); ``som`` is not changed."""
-    env, eval_env = config.run.make_env(), config.run.make_env(EVAL_SEED_OFFSET)
+    env, eval_env = config.run.make_env(), config.run.make_env("evaluation")
     try:
         som = som.with_config(continual=Continual())
         seen = som.t + sum(som.skipped.values())
@@ -109,7 +110,7 @@ def warm_up(
 def held_out(env, controller, config: AdaptConfig) -> dict[str, Any]:
     """Summary of ``config.run.eval_trials`` trials on the fixed held-out targets."""
     run = config.run
-    env.reset(seed=run.seed + EVAL_SEED_OFFSET)
+    seed_env(env, run.seed, "evaluation")
     summary = evaluate(env, controller, run.eval_trials, run.fine_moves).summary()
     controller.reset()
     summary.pop("microseconds_per_query", None)  # wall time: would make reruns differ
@@ -131,7 +132,7 @@ def adapt(
         changed scene; curves = each learning map at 0, every, 2·every, ... trials after the
         change; and the two maps as they are at the end.
     """
-    env, eval_env = config.run.make_env(), config.run.make_env(EVAL_SEED_OFFSET)
+    env, eval_env = config.run.make_env(), config.run.make_env("evaluation")
     try:
         base = eval_env.unwrapped
         stale = {

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from envs.harness import streams
 from envs.studies.grasp_oracle import PoseOracle
 from learners.base import Controller
 from learners.baselines.pose_ik import PoseIK
@@ -27,9 +28,10 @@ from models.puma560.kinematics import DH
 TRIALS_PER_LEAF = (0.5, 1.0, 2.0, 4.0)
 FINE_MOVES = 3
 TEST_TARGETS = 1000
-#: Generator streams (spawned from the seed) of the map, the training and the test targets;
-#: every budget starts the map and its training targets from the same streams.
-_STREAMS = 3
+#: The spawn key of the map's own generator under the seed (the training and test targets come
+#: from the seed's training and evaluation streams, envs.harness.streams); every budget starts
+#: the map and its training targets from the same generators.
+MAP_SPAWN_KEY = (0,)
 
 
 @dataclass(frozen=True)
@@ -96,8 +98,8 @@ def table(
     """One row per training budget, then the PoseIK floor (see the module docstring)."""
     config = config or HierarchicalConfig()
     oracle = PoseOracle(*config.image_size)
-    map_seed, train_seed, test_seed = np.random.SeedSequence(seed).spawn(_STREAMS)
-    poses, _ = oracle.targets(np.random.default_rng(test_seed), test_targets)
+    map_seed = np.random.SeedSequence(seed, spawn_key=MAP_SPAWN_KEY)
+    poses, _ = oracle.targets(streams.generator(seed, "evaluation"), test_targets)
     pixels = oracle.pixels(poses)
     leaves = config.n_positions * config.n_orientations
     rows = []
@@ -107,7 +109,7 @@ def table(
             DH.lower, DH.upper, READY, HierarchicalConfig.of(config, t_max=trials),
             rng=np.random.default_rng(map_seed),
         )  # fmt: skip
-        train(som, oracle, trials, np.random.default_rng(train_seed))
+        train(som, oracle, trials, streams.generator(seed, "training"))
         errors = oracle.errors(poses[:, None], moves(som, oracle, pixels, fine_moves))
         rows.append(_row("HierarchicalSOM", trials, leaves, *errors))
     floor = PoseIK(oracle.cameras.triangulate, oracle.base)

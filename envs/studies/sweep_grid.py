@@ -49,7 +49,6 @@ from envs.grasp import GRASP_ENV_IDS
 from envs.harness.evaluation import Evaluation, evaluate
 from envs.harness.run_folder import locked, write_json
 from envs.harness.training import (
-    EVAL_SEED_OFFSET,
     REACH_ONLY,
     RunConfig,
     Trainer,
@@ -226,7 +225,7 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
 
     try:
         trainer.run(checkpoint_every=checkpoint_every, progress=progress)
-        env = config.make_env(EVAL_SEED_OFFSET)
+        env = config.make_env("evaluation")
         try:
             result = evaluate(env, trainer.som, config.eval_trials, config.fine_moves)
         finally:
