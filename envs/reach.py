@@ -229,7 +229,10 @@ class ReachEnv(ArmScene):
             [self.model.actuator(f"joint{i + 1}").id for i in range(joints)]
         )
         self._ctrl = as_slice(self._actuator_ids)
-        self._joint_floats = (self.joint_lower.tolist(), self.joint_upper.tolist())  # rad
+        #: rad (J,) each: the action space's bounds, commands are clipped into them (the joint
+        #: ranges here; a task may narrow them, :meth:`_action_bounds`).
+        self.action_lower, self.action_upper = self._action_bounds()
+        self._action_floats = (self.action_lower.tolist(), self.action_upper.tolist())  # rad
         self.nominal_stereo = CameraPair(self.stereo.cameras)  # the baselines' calibration
         self._editor = SceneEditor(
             self.model,
@@ -391,6 +394,10 @@ class ReachEnv(ArmScene):
             return None
         return self._view.render(self.data, self._last["target"], self._detected_effector)
 
+    def _action_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The action space's bounds (J,) rad each: the joint ranges."""
+        return self.joint_lower.copy(), self.joint_upper.copy()
+
     def _task_markers(self, robot: str, joints: int) -> MarkerSet | None:
         """The task's markers for :class:`ArmScene` (None: the reach task's)."""
         return None
@@ -500,14 +507,14 @@ class ReachEnv(ArmScene):
         if not all(map(math.isfinite, values)):
             bad = int(np.flatnonzero(~np.isfinite(a))[0])
             raise ValueError(f"action for joint{bad + 1} is {a[bad]}; commands must be finite")
-        if self.normalize:  # [-1, 1] per joint -> its range
+        if self.normalize:  # [-1, 1] per joint -> its action bounds
             inside = np.minimum(np.maximum(a, -1.0), 1.0)
-            command = self._joint_mid + self._joint_half * inside
-            command = np.minimum(np.maximum(command, self.joint_lower), self.joint_upper)
+            command = self._action_mid + self._action_half * inside
+            command = np.minimum(np.maximum(command, self.action_lower), self.action_upper)
             return command, bool((inside != a).any())
         # Finite floats: min and max pick exactly what np.minimum and np.maximum would.
         command = [
-            min(max(v, lo), hi) for v, lo, hi in zip(values, *self._joint_floats, strict=True)
+            min(max(v, lo), hi) for v, lo, hi in zip(values, *self._action_floats, strict=True)
         ]
         return command, command != values
 
@@ -615,6 +622,8 @@ class ReachEnv(ArmScene):
         self.normalize = bool(normalize)
         self._joint_mid = (self.joint_upper + self.joint_lower) / 2  # rad
         self._joint_half = (self.joint_upper - self.joint_lower) / 2  # rad
+        self._action_mid = (self.action_upper + self.action_lower) / 2  # rad
+        self._action_half = (self.action_upper - self.action_lower) / 2  # rad
         size = self.goal_size
         self._pixel_max = np.tile([self.image_width - 1.0, self.image_height - 1.0], size)  # (2G,)
         self._pixel_half = self._pixel_max / 2  # px
@@ -626,7 +635,7 @@ class ReachEnv(ArmScene):
         else:
             joints = box(self.joint_lower, self.joint_upper, dtype=np.float64)
             pixels = box(np.zeros(size), self._pixel_max[:size], dtype=np.float64)
-            self.action_space = joints
+            self.action_space = box(self.action_lower, self.action_upper, dtype=np.float64)
         image = box(0, 255, (self.pixels_height, self.pixels_width, 3), dtype=np.uint8)
         spaces = {
             "observation": joints,
