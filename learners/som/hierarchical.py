@@ -27,11 +27,22 @@ Moving (``act``):
               exactly at the goal pose. Ā starts as A_rs; ``refine=True`` (not in the papers,
               as the map's option of that name) lets it take the Broyden step of the previous
               fine move, Ā += (Δθ − ĀΔf) Δf^T / |Δf|², from the second fine move on.
-    backtrack ``backtrack=True`` (not in the papers): when the cameras see the hand no nearer
-              the object after a fine move (|f(u) − f(v)| not below the best of the trial),
-              the next fine move starts again from the best pose seen, with a step halved at
-              every such failure: θ_{k+1} = θ_b + 2^-n Ā (f(u) − f(v_b)). Near the wrist
-              singularity Ā can be far off, and without this a few trials wander off.
+    backtrack ``backtrack=True`` (not in the papers): a fine move after which the cameras see
+              the hand farther from the object than G times the trial's best (|f(u) − f(v)|
+              against min_k |f(u) − f(v_k)|) is undone: the next fine move starts again from
+              the best pose seen, θ_b, f(v_b). Near the wrist singularity (θ5 ≈ 0, where only
+              θ4 + θ6 is defined) Ā can be far off, and without this a few trials wander off.
+              With ``trust_radius`` = 0 (the first releases') G = 1.5 and the step is halved at
+              every undone move: θ_{k+1} = θ_b + 2^-n Ā (f(u) − f(v_b)).
+    trust     ``trust_radius`` = ρ0 > 0 (with ``backtrack``; the default): a trust region in
+              joint space instead of the halving. With d = Ā (f(u) − f(v_b)),
+                  θ_{k+1} = θ_b + min(1, ρ_k / max_j |d_j|) d,
+              ρ_k starts at ρ0 at the coarse move, doubles after a fine move that beat the
+              trial's best and, after an undone one (G = 2), becomes half the smaller of ρ_k
+              and the undone step's largest joint change. Near the singularity the
+              leaf's Ā asks for large turns of joints 4 and 6 that the linear map does not
+              hold over; capped, the fine moves stay near the wrist configuration they started
+              on and let the Broyden step correct Ā on the way.
 
 Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δf = f(v1) − f(v0):
     w_r'     += ε h_rr' (p − w_r')                                   (Kohonen, position lattice)
@@ -94,6 +105,13 @@ WHITEN_FLOOR = 1e-3
 #: backtrack: a fine move that leaves the sensed feature error |f(u) − f(v)| more than this many
 #: times the trial's best is undone (1.25-3 measured on 1 000 objects: docs/decisions.md).
 BACKTRACK_GROWTH = 1.5
+#: backtrack with a trust region (``trust_radius`` > 0): its threshold, chosen between 1.5 and 2
+#: on validation objects (2 was better for 3 seeds × both ranges: envs/studies/pose_tail.py,
+#: docs/decisions.md).
+TRUST_GROWTH = 2.0
+#: The trust radius's factor after a fine move that beat the trial's best (and 1/2 after an
+#: undone one).
+TRUST_EXPAND = 2.0
 _BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
@@ -187,13 +205,19 @@ class HierarchicalSOM(Learner):
         """The leaves' centres c_rs (M, 12) in feature space."""
         return np.concatenate([self.w_pos[r], self.w_ori[r, s]], axis=-1)
 
-    def with_fine_moves(self, refine: bool, backtrack: bool) -> HierarchicalSOM:
-        """A copy of this map whose fine moves take (or not) the Broyden step and backtrack;
-        what it learned is the same (a copy), and its fine-move memory starts empty."""
+    def with_fine_moves(
+        self, refine: bool, backtrack: bool, trust_radius: float | None = None
+    ) -> HierarchicalSOM:
+        """A copy of this map whose fine moves take (or not) the Broyden step and backtrack
+        (``trust_radius``: None keeps this map's); what it learned is the same (a copy), and its
+        fine-move memory starts empty."""
         entries, arrays = self.state()
+        options: dict[str, Any] = {"refine": refine, "backtrack": backtrack}
+        if trust_radius is not None:
+            options["trust_radius"] = trust_radius
         som = HierarchicalSOM(
             self.lower, self.upper, self.theta[0, 0],
-            HierarchicalConfig.of(self.config, refine=refine, backtrack=backtrack), rng=0,
+            HierarchicalConfig.of(self.config, **options), rng=0,
         )  # fmt: skip
         bit_generator = type(self.rng.bit_generator)()
         bit_generator.state = entries["rng_state"]
@@ -218,7 +242,12 @@ class HierarchicalSOM(Learner):
         self._cmd_before: np.ndarray | None = None  # command before the last fine one
         # backtrack: the best sighting of the trial (|f(u) − f(v)|², command, f(v)), the step
         self._best: tuple[float, np.ndarray, np.ndarray] | None = None
-        self._step = 1.0
+        self._step = 1.0  # trust_radius = 0: the step's factor; else the trust radius, rad
+
+    @property
+    def _trust(self) -> bool:
+        """Whether the fine moves keep a trust region (``backtrack`` and ``trust_radius`` > 0)."""
+        return self.config.backtrack and self.config.trust_radius > 0.0
 
     def _broyden(self, dtheta: np.ndarray, df: np.ndarray) -> None:
         """Ā += (Δθ − Ā Δf) Δf^T / |Δf|² from the last two commands and what they gave."""
@@ -252,7 +281,7 @@ class HierarchicalSOM(Learner):
             command = self.theta[r, s] + self.A[r, s] @ (f - self.centre(r, s))
             self._abar = self.A[r, s].copy()
             self._fv = self._cmd_before = self._best = None
-            self._step = 1.0
+            self._step = self.config.trust_radius if self._trust else 1.0
         else:
             fv = self.features(self._pixels("v", v))
             if self._abar is None or self._cmd is None:
@@ -261,13 +290,24 @@ class HierarchicalSOM(Learner):
                 self._broyden(self._cmd - self._cmd_before, fv - self._fv)
             base, f_base = self._cmd, fv
             if self.config.backtrack:
+                growth = TRUST_GROWTH if self._trust else BACKTRACK_GROWTH
                 error = float((f - fv) @ (f - fv))
                 if self._best is None or error < self._best[0]:
+                    if self._best is not None and self._trust:
+                        self._step *= TRUST_EXPAND
                     self._best = (error, self._cmd, fv)
-                elif error > BACKTRACK_GROWTH**2 * self._best[0]:  # farther: from the best again
+                elif error > growth**2 * self._best[0]:  # farther: from the best again
+                    if self._trust:  # half the undone step's largest joint change at most
+                        undone = float(np.abs(self._cmd - self._cmd_before).max())
+                        self._step = min(self._step, undone)
                     _, base, f_base = self._best
                     self._step *= 0.5
-            command = base + self._step * (self._abar @ (f - f_base))
+            step = self._abar @ (f - f_base)
+            if self._trust:  # the largest joint change at most the trust radius
+                largest = float(np.abs(step).max())
+                command = base + (step * (self._step / largest) if largest > self._step else step)
+            else:
+                command = base + self._step * step
             self._fv, self._cmd_before = f_base, base
             if explore:
                 command = command + self.rng.normal(0.0, self.params()[4], self.n_joints)

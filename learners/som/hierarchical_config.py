@@ -39,6 +39,9 @@ DEFAULT_MIN_DV = 1e-3
 #: the joints show in the features, which the Widrow-Hoff rule needs to learn every direction
 #: at a similar speed.
 DEFAULT_ORIENTATION_GAIN = 4.0
+#: rad: the fine moves' trust radius at the coarse move (``trust_radius``), chosen among 0.1,
+#: 0.2 and 0.4 on validation objects of both orientation ranges (envs/studies/pose_tail.py).
+DEFAULT_TRUST_RADIUS = 0.2
 
 
 def _number(name: str, value: Any, kind: type) -> Any:
@@ -81,7 +84,13 @@ class HierarchicalConfig:
         transport: every leaf learns the winner's θ* moved to its own centre along A*.
         backtrack: a fine move after which the cameras see the hand no nearer the object (in
             feature space) is undone: the next one starts again from the best pose seen, with
-            half the step (a trust region on the fine moves; not in the papers).
+            half the step (the first releases', ``trust_radius=0``) or half the trust radius.
+        trust_radius: rad, > 0 with ``backtrack``: no fine move turns any joint by more than a
+            trust radius that starts here at every coarse move, doubles after a fine move that
+            brings the hand nearer than any before and halves after an undone one (to half that
+            move's largest joint change if it was smaller) (not in the
+            papers); 0: the first releases' backtracking (the step halved). Without
+            ``backtrack`` it does nothing.
     Raises:
         ValueError: one line naming the option and what it must be.
     """
@@ -100,6 +109,7 @@ class HierarchicalConfig:
     refine: bool = True
     transport: bool = True
     backtrack: bool = True
+    trust_radius: float = DEFAULT_TRUST_RADIUS
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -127,6 +137,11 @@ class HierarchicalConfig:
         if self.orientation_gain <= 0:
             raise ValueError(
                 f"HierarchicalConfig.orientation_gain must be > 0, got {self.orientation_gain}"
+            )
+        put("trust_radius", _number("trust_radius", self.trust_radius, float))
+        if self.trust_radius < 0:
+            raise ValueError(
+                f"HierarchicalConfig.trust_radius must be >= 0 (rad), got {self.trust_radius}"
             )
         for name in ("refine", "transport", "backtrack"):
             if not isinstance(getattr(self, name), bool):
@@ -188,22 +203,27 @@ class HierarchicalConfig:
             "refine": self.refine,
             "transport": self.transport,
             "backtrack": self.backtrack,
+            "trust_radius": self.trust_radius,
         }
 
     @classmethod
     def from_dict(cls, entries: dict[str, Any]) -> HierarchicalConfig:
         """The configuration stored by :meth:`to_dict`; ValueError naming an entry that is
         missing or of the wrong type (a damaged or foreign file). ``backtrack``, added after
-        the first maps were saved, takes its default when missing."""
+        the first maps were saved, takes its default when missing; ``trust_radius``, added
+        later, takes 0 (the fine moves those maps were trained and measured with)."""
         types: dict[str, type | tuple[type, ...]] = {
             "position_lattice": list, "orientation_lattice": list, "image_size": list,
             "t_max": int, "schedules": dict, "min_dv": (int, float),
             "orientation_gain": (int, float), "refine": bool, "transport": bool,
-            "backtrack": bool,
+            "backtrack": bool, "trust_radius": (int, float),
         }  # fmt: skip
         options: dict[str, Any] = {}
         for key, kind in types.items():
             if key == "backtrack" and key not in entries:
+                continue
+            if key == "trust_radius" and key not in entries:
+                options[key] = 0.0
                 continue
             value = entries.get(key)
             if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
