@@ -14,6 +14,7 @@ from envs.reach import PIXELS_HEIGHT, PIXELS_WIDTH, SUCCESS_THRESHOLD, ReachEnv
 from envs.reward import seen_flags
 from envs.robots import ROBOTS, MarkerSet
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH
+from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT
 from envs.step_info import StepInfo
 from models.puma560 import BASE_POS
 from models.puma560.grasp import (
@@ -27,6 +28,11 @@ from models.workspace import BoxWorkspace
 
 #: The Gymnasium ids of the pose envs (registered in envs/__init__.py).
 GRASP_ENV_IDS = ("PumaGrasp-v0",)
+#: The geom groups that may hide the object from a camera: the robot and its markers.
+ROBOT_GROUPS = np.array([int(g in (GROUP_ROBOT, GROUP_MARKER)) for g in range(6)], dtype=np.uint8)
+#: px: the least gap between two of the hand's marker images at the grasp (an object whose
+#: marker frame a camera sees edge-on, two markers one behind the other, is drawn again).
+MARKER_GAP_PX = 1.0
 #: The ``action_range`` choices: the task's joint box or the joint ranges.
 ACTION_RANGES = ("task", "joints")
 #: rad: success needs the hand's orientation within this angle of the object's (5°).
@@ -182,6 +188,9 @@ class GraspEnv(ReachEnv):
         )
         self.orientation_threshold = threshold
         self._object = self.model.body(self.markers.target_body).id
+        self._probe = mujoco.MjData(self.model)  # the arm where an episode starts, for _hidden
+        self._keep_arm = False  # the episode being reset starts where the last one ended
+        self._cameras = [self.model.camera(name).id for name in self.stereo.camera_names]
         #: The exact IK joints (6,) rad that grasp the current object (ground truth, for
         #: evaluation and tests; a learner does not see them).
         self.target_joints = np.full(6, np.nan)
@@ -191,6 +200,10 @@ class GraspEnv(ReachEnv):
         if self.action_range == "joints":
             return super()._action_bounds()
         return task_joint_box(self.orientations)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        self._keep_arm = isinstance(options, dict) and options.get("keep_arm") is True
+        return super().reset(seed=seed, options=options)
 
     def _task_markers(self, robot: str, joints: int) -> MarkerSet | None:
         return ROBOTS[robot].grasp
@@ -208,7 +221,8 @@ class GraspEnv(ReachEnv):
             inside = np.all(self.target_joints >= self.action_lower) and np.all(
                 self.target_joints <= self.action_upper
             )  # the exact grasp is an action
-            if inside and self._in_view(marker_points(pose)):
+            points = marker_points(pose)
+            if inside and self._in_view(points) and not self._hidden(points):
                 break
         quat = np.empty(4)
         mujoco.mju_mat2Quat(quat, pose[:3, :3].ravel())
@@ -216,14 +230,41 @@ class GraspEnv(ReachEnv):
 
     def _in_view(self, points: np.ndarray) -> bool:
         """Whether the images of the marker spheres at ``points`` (3, 3) lie wholly inside both
-        cameras' images (the object is a task only if the cameras can see all of it)."""
+        cameras' images, and the images of the hand's (larger) markers there, at the grasp,
+        stay :data:`MARKER_GAP_PX` apart in both (the object is a task only if the cameras can
+        see all of it, and tell the hand's markers apart when it holds it)."""
         size = np.array([self.image_width - 1.0, self.image_height - 1.0])
         for camera in self.stereo.cameras:
             uv = camera.project(points)  # (3, 2) px
             margin = camera.sphere_semi_axes(points, self.target_radius)[:, :1]  # (3, 1) px
             if np.any(uv - margin < 0.0) or np.any(uv + margin > size):
                 return False
+            hand = camera.sphere_semi_axes(points, self.marker_radius)[:, 0]  # (3,) px
+            for a, b in ((0, 1), (0, 2), (1, 2)):
+                if np.linalg.norm(uv[a] - uv[b]) < hand[a] + hand[b] + MARKER_GAP_PX:
+                    return False
         return True
+
+    def _hidden(self, points: np.ndarray) -> bool:
+        """Whether the robot, where the episode starts (``park``, or where the last one ended
+        with ``keep_arm``), stands between a camera and the centre of a marker at ``points``
+        (3, 3) (MuJoCo's ray casting against the robot's and its markers' geoms)."""
+        probe = self._probe
+        probe.qpos[:] = self.data.qpos if self._keep_arm else self.model.key_qpos[self._home]
+        mujoco.mj_kinematics(self.model, probe)
+        mujoco.mj_camlight(self.model, probe)
+        geom = np.zeros(1, dtype=np.int32)
+        for camera in self._cameras:
+            origin = probe.cam_xpos[camera]
+            for point in points:
+                ray = point - origin
+                length = float(np.linalg.norm(ray))
+                hit = mujoco.mj_ray(
+                    self.model, probe, origin, ray / length, ROBOT_GROUPS, 1, -1, geom
+                )
+                if 0.0 <= hit < length - self.target_radius:
+                    return True
+        return False
 
     def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, ...]:
         """(reward_distance, reward_orientation, reward_unseen) through

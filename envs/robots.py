@@ -12,7 +12,7 @@ from envs.sensing.marker_detection import (
     MarkerColour,
 )
 from models import puma560, riacs
-from models.puma560.grasp import MARKER_COLOURS
+from models.puma560.grasp import HAND_COLOURS, MARKER_COLOURS
 from models.workspace import Workspace
 
 #: Width : height of the sensing images of both scenes (320 x 240 by default).
@@ -35,6 +35,7 @@ class MarkerSet:
         target_outline: rendered sensing finds the target's markers from their outlines
             fitted with their radius, as the arm's (a handle or a post may hide part of one),
             instead of from their blobs (the reach task's lone target sphere).
+        start_key: the keyframe the arm starts every episode from.
     """
 
     scene: str
@@ -46,6 +47,7 @@ class MarkerSet:
     effector_colours: tuple[MarkerColour, ...] = (GREEN_EFFECTOR,)
     target_colours: tuple[MarkerColour, ...] = (RED_TARGET,)
     target_outline: bool = False
+    start_key: str = "home"
 
     @property
     def geoms(self) -> tuple[str, ...]:
@@ -57,7 +59,7 @@ class MarkerSet:
 PUMA_GRASP = MarkerSet(
     scene="scene_grasp.xml",
     site="tcp",
-    effector=tuple(f"hand_marker_{c}" for c in MARKER_COLOURS),
+    effector=tuple(f"hand_marker_{c}" for c in HAND_COLOURS),
     target=tuple(f"object_marker_{c}" for c in MARKER_COLOURS),
     drawn=(
         "gripper_palm",
@@ -73,6 +75,7 @@ PUMA_GRASP = MarkerSet(
     effector_colours=GRASP_HAND,
     target_colours=GRASP_OBJECT,
     target_outline=True,
+    start_key="park",
 )
 
 

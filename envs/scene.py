@@ -56,7 +56,7 @@ class ArmScene(gym.Env):
         self.markers = self.spec_robot.reach_markers(joints) if markers is None else markers
         self.model = load_model(robot, scene_file=self.markers.scene)
         self.data = mujoco.MjData(self.model)
-        self._home = self.model.key("home").id
+        self._home = self.model.key(self.markers.start_key).id  # where every episode starts
         self._joint_ids = np.array([self.model.joint(f"joint{i + 1}").id for i in range(joints)])
         self._qpos_ids = self.model.jnt_qposadr[self._joint_ids]
         self._qpos = as_slice(self._qpos_ids)

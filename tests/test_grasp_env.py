@@ -304,7 +304,7 @@ def test_an_unseen_marker_keeps_its_last_sighting_the_others_move_on():
     env.reset(seed=6)
     exact.reset(seed=6)
     first, _, _, _, _ = env.step(env.target_joints)
-    env.model.geom_group[env.model.geom("hand_marker_blue").id] = 5
+    env.model.geom_group[env.model.geom("hand_marker_magenta").id] = 5
     command = env.target_joints + 0.05
     obs, reward, _, _, info = env.step(command)
     truth, *_ = exact.step(command)
@@ -432,7 +432,7 @@ def test_puma_reach_senses_and_rewards_what_its_arm_does(joints, sensing, contro
 
 def test_reach_hides_the_pose_task_geoms():
     env = gym.make("PumaReach-v0", joints=6).unwrapped
-    for name in ("gripper_palm", "hand_marker_blue", "hand_post"):
+    for name in ("gripper_palm", "hand_marker_magenta", "hand_post"):
         assert env.model.geom_group[env.model.geom(name).id] == 5
     env.close()
     env = GraspEnv(sensing="project")

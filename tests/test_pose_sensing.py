@@ -90,6 +90,7 @@ def _hide(env: GraspEnv, marker: int, fraction: float) -> None:
     marker's width (similar triangles: the edge's offset scales with its depth)."""
     cam = env.stereo.cameras[0]
     palm = env.model.geom("gripper_palm").id
+    env.model.geom_size[palm][0] = 1.25 * env.marker_radius  # wide enough to hide it all
     centre = env.data.geom_xpos[env.effector_geom_ids[marker]].copy()
     toward = cam.position - centre
     depth = np.linalg.norm(toward)
@@ -123,6 +124,57 @@ def test_hidden_marker_error_stays_flat_until_the_marker_is_refused():
     env.set_joints(env.target_joints)
     _hide(env, 2, 1.2)
     pixels, visible = env.sensor.sense_effector(env.data, env.sensed_target())
-    assert visible.tolist() == [True, True, True, True, False, True]  # blue, left camera
+    assert visible.tolist() == [True, True, True, True, False, True]  # magenta, left camera
     assert np.isnan(pixels[8:10]).all() and np.isfinite(pixels[10:]).all()
+    env.close()
+
+
+@pytest.mark.parametrize("sensing", ["render", "foveated"])
+def test_the_cameras_see_the_object_and_the_hand_together(sensing):
+    """One view for both: the object's and the hand's markers are found in the same images (the
+    hand's colours told apart from the object's), each within 1.5 px of its exact projection;
+    at the grasp the hand's larger markers enclose the object's, which the cameras then no
+    longer see (they would with the hand left out of the images), while the hand's they do."""
+    env = GraspEnv(sensing=sensing, control="kinematic")
+    compared = 0
+    for seed in range(6):
+        env.reset(seed=seed)
+        apart = env.target_joints + np.array([0.12, 0.0, 0.0, 0.0, 0.3, 0.0])  # 5-10 cm away
+        env.set_joints(apart)
+        hand = env.stereo.project(marker_points(env.effector_pose())).ravel()
+        target = env.stereo.project(marker_points(env.target_pose())).ravel()
+        pixels, visible = env.sensor.sense_target(env.data)  # the hand in the images too
+        if visible.all():
+            np.testing.assert_allclose(pixels, target, atol=1.5)
+            compared += 1
+        pixels, visible = env.sensor.sense_effector(env.data, target)
+        if visible.all():
+            np.testing.assert_allclose(pixels, hand, atol=1.5)
+            compared += 1
+        env.set_joints(env.target_joints)
+        _, visible = env.sensor.sense_target(env.data)
+        assert not visible.any()  # inside the hand's markers
+        _, visible = env.sensor.sense_effector(env.data, target)
+        assert visible.all()
+    assert compared >= 10  # of 12: a marker of one frame may hide one of the other
+    env.close()
+
+
+def test_the_hand_and_the_object_wear_different_colours():
+    """The hand's three colour windows take none of the object's marker colours and the other
+    way round, so both frames can share one image."""
+    from envs.sensing.marker_detection import GRASP_HAND, GRASP_OBJECT
+
+    env = GraspEnv(sensing="project", control="kinematic")
+    for geoms, own, others in (
+        (env.effector_geom_ids, GRASP_HAND, GRASP_OBJECT),
+        (env.target_geom_ids, GRASP_OBJECT, GRASP_HAND),
+    ):
+        for geom, colour in zip(geoms, own, strict=True):
+            rgb = (255 * env.model.geom_rgba[geom][:3]).astype(np.uint8)
+            patch = np.tile(rgb, (4, 4, 1))  # lit as drawn, and darker (shading)
+            for shade in (1.0, 0.5):
+                image = (patch * shade).astype(np.uint8)
+                assert colour.mask(image).all()
+                assert not any(other.mask(image).any() for other in others)
     env.close()

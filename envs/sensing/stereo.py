@@ -344,7 +344,12 @@ class StereoRig(CameraPair):
         self, data, marker: MarkerColour, windows: Sequence[Window] | None
     ) -> tuple[list[View], list[tuple[np.ndarray, np.ndarray]]]:
         """The views and their (RGB, depth) images, drawing the marker's geom groups."""
-        groups = (GROUP_TARGET,) if marker.is_target else (GROUP_ROBOT, GROUP_MARKER)
+        if marker.together:  # the pose task: the object and the robot in the same images
+            groups = (GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
+        elif marker.is_target:
+            groups = (GROUP_TARGET,)
+        else:
+            groups = (GROUP_ROBOT, GROUP_MARKER)
         if windows is None:  # whole images show the scene; windows skip its static background
             groups = (GROUP_SCENE, *groups)
         views = self.views(windows)

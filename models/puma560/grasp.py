@@ -47,9 +47,12 @@ READY = np.array([-1.2963, -2.2265, -0.2073, 0.0, -0.818, 0.2745])
 #: the order of :data:`MARKER_COLOURS`. Red and green at the ends of a crossbar along tool y,
 #: blue below the fingers on the tool axis (see the module docstring for why).
 MARKER_OFFSETS = np.array([[0.0, 0.08, 0.02], [0.0, -0.08, 0.02], [0.0, 0.0, 0.14]])
-#: The markers' colours, in the order of :data:`MARKER_OFFSETS` (the scene's geoms
-#: ``hand_marker_<colour>`` and ``object_marker_<colour>``).
+#: The object's markers' colours, in the order of :data:`MARKER_OFFSETS` (the scene's geoms
+#: ``object_marker_<colour>``) ...
 MARKER_COLOURS = ("red", "green", "blue")
+#: ... and the hand's, pair by pair (geoms ``hand_marker_<colour>``): colours of their own, as
+#: the cameras see both frames in the same images.
+HAND_COLOURS = ("yellow", "cyan", "magenta")
 #: The hand's orientation at ``ready`` (world axes): the centre of the narrow range.
 NOMINAL_ORIENTATION = frames(READY)[6, :3, :3]
 #: Largest angle of the narrow range (the first releases' only one) from
