@@ -47,12 +47,13 @@ ORIENTATION_WEIGHT = 0.1
 class GraspEnv(ReachEnv):
     """Bring the PUMA 560's gripper to an object's pose, seen only through two cameras.
 
-    ``PumaGrasp-v0``: the PUMA 560 carries a two-finger gripper with three marker spheres (red,
-    green, blue: ``models.puma560.grasp.MARKER_OFFSETS`` in the tool frame of site ``tcp``). The
-    object to grasp is a mocap body carrying the same three markers in its own frame (and a
-    handle the cameras' colour sensing ignores): the hand grasps it when the two frames coincide,
-    and then every hand marker lies on the object's marker of its colour. All six joints are
-    commanded. The machinery (moves, sensing modes, perturbations, viewer, rendering, spaces) is
+    ``PumaGrasp-v0``: the PUMA 560 carries a two-finger gripper with three marker spheres
+    (yellow, cyan, magenta, 24 mm: ``models.puma560.grasp.MARKER_OFFSETS`` in the tool frame of
+    site ``tcp``). The object to grasp is a mocap body carrying three markers at the same
+    offsets in its own frame (red, green, blue, 20 mm; and a handle the cameras' colour sensing
+    ignores): the hand grasps it when the two frames coincide, and then every hand marker
+    encloses the object's marker of its pair. All six joints are commanded. The machinery
+    (moves, sensing modes, perturbations, viewer, rendering, spaces) is
     :class:`envs.reach.ReachEnv`'s; only the target and the reward differ.
 
     ## Action space
@@ -76,11 +77,15 @@ class GraspEnv(ReachEnv):
     | ``desired_goal`` | (12,) | px | the object's markers, same layout |
     | ``pixels_left``, ``pixels_right`` | (H, W, 3) uint8 | | camera images (``obs_mode``) |
 
-    Markers in the order red, green, blue; pixels of the 320×240 sensing images (``width`` ×
-    ``height``), each bounded by the image. The object's markers are sensed once per episode, at
-    reset, with the robot out of view; the hand's after every move, with the robot but without
-    the object. A marker not seen by both cameras keeps its last valid sensing (before any, the
-    image centre). ``normalize`` and ``obs_mode`` act as in ``ReachEnv``.
+    Markers in pair order (the object's red, green, blue; the hand's yellow, cyan, magenta);
+    pixels of the 320×240 sensing images (``width`` × ``height``), each bounded by the image.
+    The cameras see the object and the robot together, as a camera on a real robot would: the
+    object's markers are sensed at reset (the arm parked out of their way) and the hand's after
+    every move, each in images of the whole scene (the arm, the hand or the object may hide a
+    marker; a partly hidden one is fitted from its visible outline). The object does not move
+    in an episode, so its sighting at reset is kept; at the grasp the hand's larger markers
+    hide it anyway. A marker not seen by both cameras keeps its last valid sensing (before any,
+    the image centre). ``normalize`` and ``obs_mode`` act as in ``ReachEnv``.
 
     ## Reward
     ``reward = reward_distance + reward_orientation + reward_unseen``, computed from the goals
@@ -92,7 +97,8 @@ class GraspEnv(ReachEnv):
     - ``reward_orientation``: minus ``ORIENTATION_WEIGHT`` (0.1 m/rad) times the angle between
       the two fitted orientations (rad).
     - ``reward_unseen``: minus the PUMA's reach (0.86 m) when some hand marker was not seen by
-      both cameras after the move (``info["visible_effector"]``), else 0.
+      both cameras after the move (``info["visible_effector"]``), else 0. With the default
+      action box a random action keeps the hand in both rendered views 3 times in 4.
 
     Success is judged on the ground truth: ``info["is_success"]`` is ``distance <
     success_threshold`` and ``orientation_error < orientation_threshold``.
@@ -103,9 +109,12 @@ class GraspEnv(ReachEnv):
     workspace box, the orientation from ``orientations`` (by default turned up to ±90° about the
     vertical and its approach tilted up to 45° from it), drawn again until the right-arm,
     elbow-above configuration of the exact pose IK has every joint in range with ``ready``'s
-    wrist flip or the other (those joints are :attr:`target_joints`) and the images of the
-    object's three marker spheres lie wholly inside both cameras' images. The arm returns to
-    the keyframe ``home`` unless ``reset(options={"keep_arm": True})``;
+    wrist flip or the other (those joints are :attr:`target_joints`, inside the action box),
+    the images of the object's three marker spheres lie wholly inside both cameras' images, the
+    images of the hand's markers at the grasp are :data:`MARKER_GAP_PX` apart in both (not one
+    behind the other), and the robot where the episode starts hides no marker's centre. The arm
+    returns to the keyframe ``park`` (raised, out of the cameras' way) unless
+    ``reset(options={"keep_arm": True})``;
     ``reset(options={"perturb": change})`` as in ``ReachEnv`` (a tool change moves the hand's
     three markers along the tool axis).
 
@@ -125,7 +134,7 @@ class GraspEnv(ReachEnv):
     ## Arguments
     - ``sensing`` (``"render"``): ``"render"``, ``"project"`` or ``"foveated"``, as in
       ``ReachEnv``; each marker is sensed like the reach task's one (foveated: the hand's
-      markers in windows about the object's markers of the same colour).
+      markers in windows about the object's markers of their pairs).
     - ``control`` (``"servo"``): ``"servo"`` or ``"kinematic"``, as in ``ReachEnv``.
     - ``orientations`` (``"yaw:90,tilt:45"``): the range of the objects' orientations, an
       :class:`~models.puma560.grasp.OrientationRange` or its spelling: ``"yaw:Y,tilt:T"``

@@ -104,6 +104,12 @@ def main(argv: list[str] | None = None) -> dict:
         "seen (as in the papers)",
     )
     p.add_argument(
+        "--trust-radius",
+        type=cli.nonnegative_float,
+        help="PumaGrasp-v0: the hierarchical map's fine-move trust radius, rad (default: the "
+        "map's; 0: the first releases' halving backtrack)",
+    )
+    p.add_argument(
         "--abar",
         choices=ABAR,
         help="Ā of a SOM's fine moves (default: the map's; --no-refine: average)",
@@ -154,8 +160,11 @@ def main(argv: list[str] | None = None) -> dict:
         controller = make_controller(spec, env, args.seed)
         name = spec
         if isinstance(controller, VisuomotorSOM):
-            if args.no_backtrack:
-                cli.fail("--no-backtrack changes the hierarchical map of PumaGrasp-v0 only")
+            if args.no_backtrack or args.trust_radius is not None:
+                cli.fail(
+                    "--no-backtrack and --trust-radius change the hierarchical map of "
+                    "PumaGrasp-v0 only"
+                )
             controller = controller.with_config(**som_changes(args))
             name = som_name(controller)
         elif isinstance(controller, HierarchicalSOM):
@@ -165,9 +174,11 @@ def main(argv: list[str] | None = None) -> dict:
                     "map of PumaGrasp-v0 takes --no-refine and --no-backtrack"
                 )
             refine, backtrack = not args.no_refine, not args.no_backtrack
-            controller = controller.with_fine_moves(refine, backtrack)
+            controller = controller.with_fine_moves(refine, backtrack, args.trust_radius)
             name = "hierarchical som" + " (no refine)" * (not refine)
             name += " (no backtrack)" * (not backtrack)
+            if backtrack and args.trust_radius is not None:
+                name += f" (trust {args.trust_radius:g} rad)"
         seed_env(env, args.seed, "evaluation")  # the same held-out targets for every one
         result = evaluate_with_bar(env, controller, name, args.targets, args.fine_moves)
         results[name] = result
@@ -248,23 +259,25 @@ def format_table(rows: list[dict]) -> str:
 
 
 def format_pose_table(rows: list[dict]) -> str:
-    """The pose task's table: mean position error (mm, % of reach) and orientation error (°)
-    after each move, then median and 95th percentile after the last, over every trial, and the
-    complete trials."""
-    moves = len(rows[0]["mean_mm"])
-    names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
-    head = f"{'controller':<18}" + "".join(f"{n + ' [mm / % / deg]':>30}" for n in names)
-    head += f"{'last median':>20}{'last p95':>20}{'complete':>10}"
+    """The pose task's table, one line per controller and move: mean position error (mm, % of
+    reach) and orientation error (°), their medians, the share of trials over 1 mm or 1°, the
+    largest errors, over every trial; then each controller's complete trials."""
+    head = (
+        f"{'controller':<32}{'move':>8}{'mean mm':>10}{'% reach':>9}{'mean deg':>10}"
+        f"{'median mm':>11}{'median deg':>11}{'>1mm|1deg':>11}{'max mm':>10}{'max deg':>9}"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
-        line = f"{r['controller']:<18}"
-        for k in range(moves):
-            cell = f"{r['mean_mm'][k]:.3f} / {r['mean_percent_reach'][k]:.4f} / "
-            line += f"{cell + format(r['mean_deg'][k], '.3f'):>30}"
-        for key in ("median", "p95"):
-            line += f"{r[key + '_mm'][-1]:.3f} mm {r[key + '_deg'][-1]:.3f} deg".rjust(20)
-        line += f"{r['complete_fraction'] * 100:>9.1f}%"
-        lines.append(line)
+        for k in range(len(r["mean_mm"])):
+            move = "coarse" if k == 0 else f"fine {k}"
+            lines.append(
+                f"{r['controller'] if k == 0 else '':<32}{move:>8}{r['mean_mm'][k]:>10.3f}"
+                f"{r['mean_percent_reach'][k]:>9.4f}{r['mean_deg'][k]:>10.3f}"
+                f"{r['median_mm'][k]:>11.3f}{r['median_deg'][k]:>11.3f}"
+                f"{100 * r['tail_fraction'][k]:>10.2f}%"
+                f"{r['max_mm'][k]:>10.2f}{r['max_deg'][k]:>9.2f}"
+            )
+        lines.append(f"{'':<32}{'complete trials':>18}: {r['complete_fraction'] * 100:.1f}%")
     lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
     return "\n".join(lines)
 

@@ -23,6 +23,8 @@ from learners.base import Controller
 #: The high percentile reported beside mean and median.
 PERCENTILE = 95.0
 MM_PER_M = 1e3
+#: The pose task's tail: a trial ends off when over either bound (m, rad: 1 mm or 1°).
+TAIL_BOUNDS = (1e-3, float(np.radians(1.0)))
 
 
 @dataclass
@@ -58,7 +60,9 @@ class Evaluation:
     def summary(self) -> dict[str, object]:
         """Per move, over all trials: mean, median and 95th percentile in mm, mean in % of reach,
         mean, median and 95th percentile in px; on a pose env also mean, median and 95th
-        percentile of the orientation error in degrees; the fraction of trials that made each
+        percentile of the orientation error in degrees, the largest position (mm) and
+        orientation (°) errors and the share of trials over 1 mm or 1° (``TAIL_BOUNDS``); the
+        fraction of trials that made each
         move; the complete trials (count and fraction); with recovery, the trials that made
         recovery moves and the mean recovery moves per trial. JSON-ready."""
         mm = self.distances * MM_PER_M
@@ -83,6 +87,10 @@ class Evaluation:
             out["mean_deg"] = deg.mean(axis=0).round(5).tolist()
             out["median_deg"] = np.median(deg, axis=0).round(5).tolist()
             out["p95_deg"] = np.percentile(deg, PERCENTILE, axis=0).round(5).tolist()
+            out["max_mm"] = mm.max(axis=0).round(4).tolist()
+            out["max_deg"] = deg.max(axis=0).round(5).tolist()
+            off = (self.distances > TAIL_BOUNDS[0]) | (self.orientation_errors > TAIL_BOUNDS[1])
+            out["tail_fraction"] = off.mean(axis=0).round(5).tolist()
         out["microseconds_per_query"] = round(self.seconds_per_query * 1e6, 2)
         if self.recovery_moves is not None:
             out["recovered_trials"] = int((self.recovery_moves > 0).sum())
