@@ -48,6 +48,10 @@ RESET_OPTIONS = {
 }
 
 
+#: px: a marker sphere's image this far outside both images is not rendered (it is not seen).
+OUT_OF_VIEW_PX = 4.0
+
+
 class ReachEnv(ArmScene):
     """Reach a target with a robot arm, seen only through two cameras.
 
@@ -556,10 +560,33 @@ class ReachEnv(ArmScene):
 
     def _sense_effector(self) -> None:
         # The markers are expected where the target's are: that is where a reach aims.
-        pixels, visible = self.sensor.sense_effector(self.data, self._detected_target)
+        if self.sensing != "project" and self._effector_out_of_view():
+            pixels = np.full(self.goal_size, np.nan)  # what rendering would find: nothing
+            visible = np.zeros(self.goal_size // 2, dtype=bool)
+        else:
+            pixels, visible = self.sensor.sense_effector(self.data, self._detected_target)
         self._visible_effector = self._per_camera(visible)
         self._detected_effector = pixels
         self._remember("effector", pixels, visible)
+
+    def _effector_out_of_view(self) -> bool:
+        """Whether every marker sphere on the arm lies wholly outside both cameras' images (or
+        behind them), by more than OUT_OF_VIEW_PX: rendering could not see any of it, so it is
+        not rendered (the pose task's parked arm at every reset)."""
+        centres = self.data.geom_xpos[self.effector_geom_ids]  # (M, 3)
+        size = np.array([self.image_width - 1.0, self.image_height - 1.0])
+        for camera in self.stereo.cameras:
+            depth = (camera.position - centres) @ camera.rotation[:, 2]  # (M,) along the view
+            ahead = depth > self.marker_radius
+            if not ahead.any():
+                continue
+            uv = camera.project(centres[ahead])
+            reach = camera.sphere_semi_axes(centres[ahead], self.marker_radius)[:, :1]
+            reach = reach + OUT_OF_VIEW_PX
+            inside = np.all((uv + reach >= 0.0) & (uv - reach <= size), axis=1)
+            if inside.any():
+                return False
+        return True
 
     @staticmethod
     def _per_camera(visible: np.ndarray) -> np.ndarray:

@@ -199,3 +199,51 @@ def test_a_sphere_is_sensed_at_the_same_pixels_wherever_its_window_was_placed(ri
         sensed.append(pixels)
     spread = np.ptp(np.array(sensed), axis=0)
     assert spread.max() < 1e-6, f"the same sphere was sensed {spread.max():.2g} px apart"
+
+
+def test_several_markers_sensed_together_as_one_by_one():
+    """FoveatedSensing.sense_many (the pose task's three markers, whole images rendered once
+    for all that need them) gives bit for bit what sense gives marker by marker (each with its
+    own whole images), with no more renderings and fewer where whole images are needed."""
+    from envs.grasp import GraspEnv
+
+    env = GraspEnv(sensing="foveated", control="kinematic")
+    fovea, markers = env.sensor.fovea, env.markers
+    renderer = fovea.stereo._renderer
+    draw = renderer.render
+    counts = {"renders": 0}
+
+    def counted(*args, **kwargs):
+        counts["renders"] += 1
+        return draw(*args, **kwargs)
+
+    renderer.render = counted
+    saved = 0
+    for seed in range(4):
+        env.reset(seed=seed)
+        target = env.sensed_target()
+        for joints in (env.target_joints + 0.05, env.target_joints):  # near, and at the grasp
+            env.set_joints(joints)
+            for colours, radius, expected in (
+                (markers.target_colours, env.target_radius, None),
+                (markers.effector_colours, env.marker_radius, target),
+            ):
+                before = counts["renders"]
+                together = fovea.sense_many(env.data, colours, radius, expected)
+                middle = counts["renders"]
+                one_by_one = [
+                    fovea.sense(
+                        env.data,
+                        c,
+                        radius,
+                        None if expected is None else expected[4 * k : 4 * k + 4],
+                    )
+                    for k, c in enumerate(colours)
+                ]
+                assert middle - before <= counts["renders"] - middle
+                saved += (counts["renders"] - middle) - (middle - before)
+                for (p, v), (q, w) in zip(together, one_by_one, strict=True):
+                    np.testing.assert_array_equal(p, q)
+                    np.testing.assert_array_equal(v, w)
+    assert saved >= 2 * 4 * 2  # the object's three whole images at least: one, not three
+    env.close()

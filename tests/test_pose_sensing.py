@@ -178,3 +178,19 @@ def test_the_hand_and_the_object_wear_different_colours():
                 assert colour.mask(image).all()
                 assert not any(other.mask(image).any() for other in others)
     env.close()
+
+
+@pytest.mark.parametrize("sensing", ["render", "foveated"])
+def test_the_parked_hand_is_out_of_view_and_not_rendered_for_nothing(sensing):
+    """At reset the arm is parked: the hand's markers project wholly outside both images, so
+    the env skips rendering them, and rendering them finds nothing either; at the grasp they
+    are in view and sensed."""
+    env = GraspEnv(sensing=sensing, control="kinematic")
+    for seed in range(3):
+        _, info = env.reset(seed=seed)
+        assert env._effector_out_of_view() and not info["visible_effector"].any()
+        pixels, visible = env.sensor.sense_effector(env.data, env.sensed_target())
+        assert not visible.any() and np.isnan(pixels).all()
+        env.set_joints(env.target_joints)
+        assert not env._effector_out_of_view()
+    env.close()

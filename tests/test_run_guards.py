@@ -85,4 +85,6 @@ def test_a_foreign_checkpoint_is_refused_by_resume_evaluate_and_video(puma_run, 
 def test_a_pose_only_option_on_a_reach_map_is_a_one_line_error(puma_run, tmp_path):
     line = one_line_error(run_script("evaluate", "--run", str(puma_run), "--no-backtrack",
                                    "--targets", "2", "--out", str(tmp_path / "e")))  # fmt: skip
-    assert "--no-backtrack and --trust-radius change the hierarchical map of PumaGrasp-v0 only" in line
+    assert (
+        "--no-backtrack and --trust-radius change the hierarchical map of PumaGrasp-v0 only" in line
+    )

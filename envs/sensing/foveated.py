@@ -117,19 +117,39 @@ class FoveatedSensing:
         trusted (a sliver, its outline hidden; the whole image would show the same part at a
         lower density), or when it shows none of the marker while the other camera's trusted
         sighting places the marker inside the window (:meth:`hidden`)."""
-        if expected is not None and np.any(np.isfinite(expected)):
-            windows = self.windows(expected, radius)
-            seen = self.stereo.sense_sphere(data, marker, radius, windows)
-            if np.all(seen.visible | seen.framed | self.hidden(seen, windows, expected, radius)):
-                return seen.pixels, seen.visible
-        self.fallbacks += 1
-        whole, seen = self.stereo.sense(data, marker, radius)
-        if not seen.any():
-            return whole, seen
-        pixels, visible = self.stereo.sense(data, marker, radius, self.windows(whole, radius))
-        if visible.sum() < seen.sum():
-            return whole, seen
-        return pixels, visible
+        return self.sense_many(data, (marker,), radius, expected)[0]
+
+    def sense_many(
+        self, data, markers, radius: float, expected: np.ndarray | None = None
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """:meth:`sense` of several spheres of one ``radius`` drawn with the same geom groups
+        (one task's target markers, or its arm's), ``expected`` (4M,) px or None: each in its
+        own windows first; the whole images, where some are needed, rendered once for all the
+        markers that need them. The same sightings as :meth:`sense` marker by marker, with
+        fewer renderings."""
+        found: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(markers)
+        pending = []
+        for k, marker in enumerate(markers):
+            guess = None if expected is None else expected[4 * k : 4 * k + 4]
+            if guess is not None and np.any(np.isfinite(guess)):
+                windows = self.windows(guess, radius)
+                seen = self.stereo.sense_sphere(data, marker, radius, windows)
+                if np.all(seen.visible | seen.framed | self.hidden(seen, windows, guess, radius)):
+                    found[k] = (seen.pixels, seen.visible)
+                    continue
+            pending.append(k)
+        self.fallbacks += len(pending)
+        wholes = (
+            self.stereo.sense_many(data, [markers[k] for k in pending], radius) if pending else []
+        )
+        for k, (whole, seen) in zip(pending, wholes, strict=True):
+            found[k] = (whole, seen)
+            if seen.any():
+                windows = self.windows(whole, radius)
+                pixels, visible = self.stereo.sense(data, markers[k], radius, windows)
+                if visible.sum() >= seen.sum():
+                    found[k] = (pixels, visible)
+        return found  # type: ignore[return-value]
 
     def hidden(
         self, seen: SphereSighting, windows: list[Window], expected: np.ndarray, radius: float

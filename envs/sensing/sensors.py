@@ -164,14 +164,11 @@ class FoveatedSensor(Sensor):
         self.marker_radius, self.target_radius = marker_radius, target_radius
 
     def sense_target(self, data) -> Sighting:
-        return joined([self.fovea.sense(data, c, self.target_radius) for c in self.target_colours])
+        return joined(self.fovea.sense_many(data, self.target_colours, self.target_radius))
 
     def sense_effector(self, data, expected: np.ndarray) -> Sighting:
         return joined(
-            [
-                self.fovea.sense(data, c, self.marker_radius, expected[4 * k : 4 * k + 4])
-                for k, c in enumerate(self.effector_colours)
-            ]
+            self.fovea.sense_many(data, self.effector_colours, self.marker_radius, expected)
         )
 
 
