@@ -59,7 +59,15 @@ def test_summaries_give_degrees_for_pose_envs_only():
     pose = Evaluation(reach.distances, reach.pixel_errors, reach.target_pos, reach.reached, 1.0,
                       1e-6, orientation_errors=radians)  # fmt: skip
     summary = pose.summary()
-    assert list(summary)[:-1] == [*REACH_KEYS[:-1], "mean_deg", "median_deg", "p95_deg"]
+    assert list(summary)[:-1] == [*REACH_KEYS[:-1], "mean_deg", "median_deg", "p95_deg",
+                                  "max_mm", "max_deg", "tail_fraction"]  # fmt: skip
+    # The tail: trials over 1 mm or 1°, counted by hand.
+    off = [
+        sum(1 for i in range(n) if reach.distances[i, k] > 1e-3 or radians[i, k] > np.pi / 180)
+        for k in range(moves)
+    ]
+    np.testing.assert_allclose(summary["tail_fraction"], np.array(off) / n, atol=1e-5)
+    np.testing.assert_allclose(summary["max_mm"], 1e3 * reach.distances.max(axis=0), atol=1e-4)
     np.testing.assert_allclose(summary["mean_deg"], radians.mean(axis=0) * 180 / np.pi, atol=1e-5)
     np.testing.assert_allclose(
         summary["median_deg"], np.median(radians, axis=0) * 180 / np.pi, atol=1e-5
@@ -172,3 +180,22 @@ def test_a_map_of_the_other_task_is_refused(unbroken, tmp_path):
     finally:
         pose_env.close()
         reach_env.close()
+
+
+def test_a_pose_run_keeps_its_orientation_range_and_old_runs_read_as_the_ball(tmp_path):
+    """RunConfig stores the objects' orientation range by its spelling, the env it makes draws
+    from it, and a stored pose run from before the field existed reads as the 30° ball it was
+    trained on; a reach run refuses the field."""
+    narrow = RunConfig(env="PumaGrasp-v0", sensing="project", orientations="ball:30.0")
+    assert narrow.orientations == "ball:30" and RunConfig.from_stored(narrow.to_stored()) == narrow
+    env = narrow.make_env()
+    assert env.unwrapped.orientations.spec() == "ball:30"
+    env.close()
+    assert RunConfig(env="PumaGrasp-v0").orientations == "yaw:90,tilt:45"
+    stored = RunConfig(env="PumaGrasp-v0").to_stored()
+    del stored["orientations"]
+    assert RunConfig.from_stored(stored).orientations == "ball:30"
+    with pytest.raises(ValueError, match="orientations is for the pose envs"):
+        RunConfig(env="RiacsReach-v0", orientations="ball:30")
+    with pytest.raises(ValueError, match="tilt is 95°"):
+        RunConfig(env="PumaGrasp-v0", orientations="yaw:10,tilt:95")
