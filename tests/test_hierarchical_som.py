@@ -111,6 +111,56 @@ def test_learning_step_with_full_rates(oracle, transport):
     assert som.t == 1
 
 
+@pytest.mark.parametrize("transport", [False, True])
+def test_a_later_pair_learns_the_outputs_from_its_own_first_move(oracle, transport):
+    """``coarse=False`` (fine move k -> k + 1), ε' = 1 on one leaf: θ* = θ_k + A(c − f(v_k))
+    (θ_k's estimate of the joints at the centre, not the coarse rule's θ_rs + A(f(u) − f(v_k))),
+    A* Δf = Δθ as for the first pair, and the input weights and t do not move."""
+    som = _one_leaf(oracle, eps=1.0, eps_out=1.0, transport=transport)
+    A = som.A[0, 0].copy()
+    centre = np.concatenate([som.w_pos[0], som.w_ori[0, 0]])
+    u, v0, v1 = (oracle.hand_pixels(READY + d) for d in (0.05, -0.02, 0.01))
+    theta0, theta1 = READY + 0.01, READY + np.array([0.02, -0.01, 0.03, 0.05, -0.04, 0.02])
+    assert som.learn(u, theta0, v0, theta1, v1, coarse=False)
+    np.testing.assert_array_equal(np.concatenate([som.w_pos[0], som.w_ori[0, 0]]), centre)
+    df = som.features(v1 - v0)
+    np.testing.assert_allclose(som.A[0, 0] @ df, theta1 - theta0, atol=1e-12)
+    np.testing.assert_allclose(som.theta[0, 0], theta0 + A @ (centre - som.features(v0)),
+                               atol=1e-13)  # fmt: skip
+    assert som.t == 0
+
+
+def test_training_on_later_pairs(oracle):
+    """``train(pairs=1)`` is the one-fine-move trial as before (re-implemented here, bit for
+    bit); ``pairs=3`` makes three exploratory fine moves per trial and learns from each
+    consecutive pair (coarse, 1), (1, 2), (2, 3), the later ones with ``coarse=False``."""
+    a, b = _map(seed=3), _map(seed=3)
+    _train(a, oracle, 40)
+    poses, _ = oracle.targets(np.random.default_rng(1), 40)
+    for u in oracle.pixels(poses):
+        b.reset()
+        theta0 = b.act(u)
+        v0 = oracle.hand_pixels(theta0)
+        theta1 = b.act(u, v0, explore=True)
+        b.learn(u, theta0, v0, theta1, oracle.hand_pixels(theta1))
+    for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    c, d = _map(seed=3), _map(seed=3)
+    train(c, oracle, 40, np.random.default_rng(1), pairs=3)
+    for u in oracle.pixels(poses):
+        d.reset()
+        theta = [d.act(u)]
+        v = [oracle.hand_pixels(theta[0])]
+        for _ in range(3):
+            theta.append(d.act(u, v[-1], explore=True))
+            v.append(oracle.hand_pixels(theta[-1]))
+        for k in range(3):
+            d.learn(u, theta[k], v[k], theta[k + 1], v[k + 1], coarse=k == 0)
+    for name in ("w_pos", "w_ori", "theta", "A", "df_cov"):
+        np.testing.assert_array_equal(getattr(c, name), getattr(d, name))
+    assert c.t == 40 and not np.array_equal(c.A, a.A)
+
+
 def test_errors_fall_with_training(oracle):
     """Against the oracle's exact poses, on targets the map never trained on."""
     poses, _ = oracle.targets(np.random.default_rng(99), 60)

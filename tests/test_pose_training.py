@@ -16,8 +16,15 @@ import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.harness.checkpoint import check_map_fits, load_map, read_unit
 from envs.harness.evaluation import Evaluation, carried_orientation, evaluate
 from envs.harness.stopping import StopRequested
-from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer, initial_pose_map
-from envs.harness.trials import Trial
+from envs.harness.training import (
+    MAP_FILE,
+    METRICS_FILE,
+    TRAINING_PAIRS,
+    RunConfig,
+    Trainer,
+    initial_pose_map,
+)
+from envs.harness.trials import Trial, learn_from
 from envs.studies.grasp_oracle import PoseOracle
 from envs.studies.sweep_grid import cell_name
 from learners.base import Controller
@@ -193,9 +200,53 @@ def test_a_pose_run_keeps_its_orientation_range_and_old_runs_read_as_the_ball(tm
     env.close()
     assert RunConfig(env="PumaGrasp-v0").orientations == "yaw:90,tilt:45"
     stored = RunConfig(env="PumaGrasp-v0").to_stored()
-    del stored["orientations"]
-    assert RunConfig.from_stored(stored).orientations == "ball:30"
+    assert stored["training_pairs"] == TRAINING_PAIRS == 4
+    del stored["orientations"], stored["training_pairs"]
+    old = RunConfig.from_stored(stored)  # a run stored before the fields: as it was trained
+    assert old.orientations == "ball:30" and old.training_pairs == 1
+    with pytest.raises(ValueError, match=r"training_pairs is 0; it takes an integer in 1\.\.8"):
+        RunConfig(env="PumaGrasp-v0", training_pairs=0)
+    with pytest.raises(ValueError, match="training_pairs is for the pose envs"):
+        RunConfig(env="PumaReach-v0", training_pairs=2)
     with pytest.raises(ValueError, match="orientations is for the pose envs"):
         RunConfig(env="RiacsReach-v0", orientations="ball:30")
     with pytest.raises(ValueError, match="tilt is 95°"):
         RunConfig(env="PumaGrasp-v0", orientations="yaw:10,tilt:95")
+
+
+class Recorder(Controller):
+    """Records what ``learn`` was given; refuses (returns False) the pairs listed in ``refuse``."""
+
+    def __init__(self, refuse: tuple[int, ...] = ()) -> None:
+        self.calls: list[tuple] = []
+        self.refuse = refuse
+
+    def act(self, u, v=None, explore=False):
+        return READY.copy()
+
+    def learn(self, u, theta0, v0, theta1, v1, coarse=True):
+        self.calls.append((u, theta0, v0, theta1, v1, coarse))
+        return len(self.calls) - 1 not in self.refuse
+
+
+def test_learn_from_gives_consecutive_pairs_with_the_same_target():
+    """Pair k is (θ_k, v_k) -> (θ_k+1, v_k+1), the first with the learner's default (the coarse
+    rule), the later ones with coarse=False; no more pairs than the trial's moves allow; the
+    count is of the pairs learned."""
+    trial = Trial(np.arange(12.0))
+    trial.commands = [np.full(6, float(k)) for k in range(4)]  # coarse and 3 fine moves
+    trial.sensed_px = [np.full(12, 10.0 + k) for k in range(4)]
+    one = Recorder()
+    assert learn_from(one, trial) == 1 and len(one.calls) == 1 and one.calls[0][5] is True
+    many = Recorder(refuse=(1,))
+    assert learn_from(many, trial, pairs=5) == 2  # 3 pairs made, the second refused
+    assert [c[5] for c in many.calls] == [True, False, False]
+    for k, (u, theta0, v0, theta1, v1, _) in enumerate(many.calls):
+        np.testing.assert_array_equal(u, trial.target_px)
+        np.testing.assert_array_equal(theta0, np.full(6, float(k)))
+        np.testing.assert_array_equal(theta1, np.full(6, float(k + 1)))
+        np.testing.assert_array_equal(v0, np.full(12, 10.0 + k))
+        np.testing.assert_array_equal(v1, np.full(12, 11.0 + k))
+    assert learn_from(Recorder(), Trial(np.zeros(12)), pairs=3) == 0  # no move: nothing
+    with pytest.raises(ValueError, match="pairs"):
+        learn_from(Recorder(), trial, pairs=0)

@@ -33,7 +33,7 @@ from envs import sizes
 from envs.cli import common as cli
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness.stopping import SignalStop, StopRequested
-from envs.harness.training import MAP_FILE, RESUMABLE, RunConfig, Trainer
+from envs.harness.training import MAP_FILE, RESUMABLE, TRAINING_PAIRS, RunConfig, Trainer
 from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 from learners.persistence import writing
 from learners.som.config import PROTOCOLS, RULES
@@ -86,6 +86,9 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--orientations", type=cli.orientation_range,
                    help=f"PumaGrasp-v0: the objects' orientation range, 'yaw:DEG,tilt:DEG' or "
                    f"'ball:DEG' (default {WIDE.spec()}; ball:30: the first releases')")  # fmt: skip
+    p.add_argument("--training-pairs", type=cli.positive_int,
+                   help=f"PumaGrasp-v0: exploratory fine moves per training trial, each learned "
+                   f"(default {TRAINING_PAIRS}; 1: the papers' one)")  # fmt: skip
     p.add_argument("--rule", default=d.rule, choices=RULES)
     p.add_argument(
         "--protocol",
@@ -112,7 +115,7 @@ def main(argv: list[str] | None = None) -> Path:
     args = p.parse_args(argv)
     cli.check_image_size(args.env, args.image_size)
     pose_env = args.env in GRASP_ENV_IDS
-    for flag in ("orientation_lattice", "orientations"):
+    for flag in ("orientation_lattice", "orientations", "training_pairs"):
         if getattr(args, flag) is not None and not pose_env and not args.resume:
             name = "--" + flag.replace("_", "-")
             cli.fail(f"{name} is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
@@ -140,6 +143,7 @@ def main(argv: list[str] | None = None) -> Path:
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
                 orientation_lattice=args.orientation_lattice if pose_env else None,
                 orientations=args.orientations if pose_env else None,
+                training_pairs=args.training_pairs if pose_env else None,
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)
         try:

@@ -138,16 +138,25 @@ def _recover(env, controller: Controller, trial: Trial) -> np.ndarray | None:
     return None
 
 
-def learn_from(controller: Learner, trial: Trial) -> bool:
-    """Give a learner the first two moves of a trial; False if the trial was not usable."""
-    if len(trial.commands) < 2:
-        return False
-    return bool(
-        controller.learn(
-            trial.target_px,
-            trial.commands[0],
-            trial.sensed_px[0],
-            trial.commands[1],
-            trial.sensed_px[1],
+def learn_from(controller: Learner, trial: Trial, pairs: int = 1) -> int:
+    """Give a learner consecutive moves of a trial: the coarse and first fine move, then, for
+    ``pairs`` > 1, fine move k and k + 1 for k = 1 … pairs − 1 (as many as the trial made),
+    with the same target and ``coarse=False`` (a learner whose ``learn`` takes that keyword:
+    ``HierarchicalSOM``). Returns how many pairs it learned from (0: the trial was not usable).
+    """
+    if pairs < 1:
+        raise ValueError(f"pairs must be >= 1, got {pairs}")
+    learned = 0
+    for k in range(min(pairs, len(trial.commands) - 1)):
+        later = {"coarse": False} if k else {}
+        learned += bool(
+            controller.learn(
+                trial.target_px,
+                trial.commands[k],
+                trial.sensed_px[k],
+                trial.commands[k + 1],
+                trial.sensed_px[k + 1],
+                **later,
+            )
         )
-    )
+    return learned

@@ -2,7 +2,8 @@
 
 Seeded runs through :class:`~envs.studies.grasp_oracle.PoseOracle` (exact projection, joints
 set exactly): for each training budget a fresh :class:`~learners.som.hierarchical.HierarchicalSOM`
-trains on its own trials (coarse move, one exploratory fine move, one ``learn``) with its
+trains on its own trials (coarse move, ``pairs`` exploratory fine moves, one ``learn`` per
+consecutive pair of moves: :func:`~envs.harness.trials.learn_from`; 1 by default) with its
 schedules run over exactly that budget, then moves to held-out targets with a coarse and
 ``fine_moves`` fine moves. Every held-out trial is counted (the oracle sees every marker). The
 floor beside it is :class:`~learners.baselines.pose_ik.PoseIK` through the same cameras.
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from envs.harness import streams
+from envs.harness.trials import Trial, learn_from
 from envs.studies.grasp_oracle import PoseOracle
 from learners.base import Controller
 from learners.baselines.pose_ik import PoseIK
@@ -51,15 +53,26 @@ class Row:
     orientation_median_deg: np.ndarray
 
 
-def train(som: HierarchicalSOM, oracle: PoseOracle, trials: int, rng: np.random.Generator) -> None:
-    """``trials`` training trials of the map on targets drawn from ``rng``."""
+def train(
+    som: HierarchicalSOM,
+    oracle: PoseOracle,
+    trials: int,
+    rng: np.random.Generator,
+    pairs: int = 1,
+) -> None:
+    """``trials`` training trials of the map on targets drawn from ``rng``: a coarse and
+    ``pairs`` exploratory fine moves each, learned pair by pair
+    (:func:`~envs.harness.trials.learn_from`)."""
     poses, _ = oracle.targets(rng, trials)
     for u in oracle.pixels(poses):
         som.reset()
-        theta0 = som.act(u)
-        v0 = oracle.hand_pixels(theta0)
-        theta1 = som.act(u, v0, explore=True)
-        som.learn(u, theta0, v0, theta1, oracle.hand_pixels(theta1))
+        trial = Trial(u)
+        for k in range(pairs + 1):
+            sensed = trial.sensed_px[-1] if k else None
+            command = som.act(u) if sensed is None else som.act(u, sensed, explore=True)
+            trial.commands.append(command)
+            trial.sensed_px.append(oracle.hand_pixels(command))
+        learn_from(som, trial, pairs)
 
 
 def moves(
@@ -94,8 +107,10 @@ def table(
     trials_per_leaf: tuple[float, ...] = TRIALS_PER_LEAF,
     test_targets: int = TEST_TARGETS,
     fine_moves: int = FINE_MOVES,
+    pairs: int = 1,
 ) -> list[Row]:
-    """One row per training budget, then the PoseIK floor (see the module docstring)."""
+    """One row per training budget, then the PoseIK floor (see the module docstring);
+    ``pairs``: pairs of moves learned per training trial (:func:`train`)."""
     config = config or HierarchicalConfig()
     oracle = PoseOracle(*config.image_size)
     map_seed = np.random.SeedSequence(seed, spawn_key=MAP_SPAWN_KEY)
@@ -109,7 +124,7 @@ def table(
             DH.lower, DH.upper, READY, HierarchicalConfig.of(config, t_max=trials),
             rng=np.random.default_rng(map_seed),
         )  # fmt: skip
-        train(som, oracle, trials, streams.generator(seed, "training"))
+        train(som, oracle, trials, streams.generator(seed, "training"), pairs)
         errors = oracle.errors(poses[:, None], moves(som, oracle, pixels, fine_moves))
         rows.append(_row("HierarchicalSOM", trials, leaves, *errors))
     floor = PoseIK(oracle.cameras.triangulate, oracle.base)

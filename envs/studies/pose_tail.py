@@ -7,7 +7,9 @@ for each seed and orientation range a fresh :class:`~learners.som.hierarchical.H
 trains on the oracle (:func:`~envs.studies.grasp_learning.train`, ``trials_per_leaf`` trials
 per leaf, schedules over exactly that budget), then every fine-move variant (a copy of the
 trained map with other fine-move options: nothing it learned changes) moves to the same objects
-with a coarse and ``fine_moves`` fine moves.
+with a coarse and ``fine_moves`` fine moves. A training trial makes a coarse and ``pairs``
+exploratory fine moves and is learned pair by pair (:func:`~envs.harness.trials.learn_from`;
+``pairs=1``: one fine move and one ``learn``, as before): the budget is counted in trials.
 
 Generators (:mod:`envs.harness.streams`): training targets from the seed's ``training`` stream,
 the map's own generator from ``SeedSequence(seed, spawn_key=(7,))``, the objects from the
@@ -26,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from envs.harness.streams import generator
+from envs.harness.training import TRAINING_PAIRS
 from envs.studies.grasp_learning import moves, train
 from envs.studies.grasp_oracle import PoseOracle
 from learners.som.hierarchical import HierarchicalSOM
@@ -122,11 +125,13 @@ def tail(
     report: Sequence[int] = (3, 5),
     stream: str = "validation",
     config: HierarchicalConfig | None = None,
+    pairs: int = TRAINING_PAIRS,
 ) -> list[Row]:
     """Rows per range, seed, variant and reported fine move (see the module docstring).
 
     ``config``: the map's options for training (default: the defaults); ``variants``: name ->
-    fine-move options of the copy that moves (default :data:`VARIANTS`).
+    fine-move options of the copy that moves (default :data:`VARIANTS`); ``pairs``: pairs of
+    moves learned per training trial (``train``; 1: one fine move, as before).
     """
     if stream not in ("validation", "evaluation"):
         raise ValueError(f"objects come from 'validation' or 'evaluation', not {stream!r}")
@@ -141,7 +146,7 @@ def tail(
                 DH.lower, DH.upper, READY, HierarchicalConfig.of(config, t_max=trials),
                 rng=np.random.default_rng(np.random.SeedSequence(seed, spawn_key=MAP_SPAWN_KEY)),
             )  # fmt: skip
-            train(som, oracle, trials, generator(seed, "training"))
+            train(som, oracle, trials, generator(seed, "training"), pairs)
             poses, exact = oracle.targets(generator(seed, stream), objects)
             pixels = oracle.pixels(poses)
             for name, options in variants.items():

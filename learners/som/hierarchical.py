@@ -63,6 +63,17 @@ for the six joints' sake:
                 centre (after it). MRS give every neighbour θ* itself, which pulls θ_r's' towards
                 the joints of another place and leaves θ_rs off its own centre until σ' is
                 small; ``transport=False`` is MRS's rule.
+Later pairs (``learn(..., coarse=False)``; :func:`envs.harness.trials.learn_from` with
+``pairs`` = k > 1, not in the papers): a training trial of a coarse and k exploratory fine
+moves is learned pair by pair, (θ0, v0) → (θ1, v1) as above, then every (θ_k, v_k) →
+(θ_{k+1}, v_{k+1}) with the same target u (and so u's winner (r, s)):
+    θ* = θ_k + A_rs (c_rs − f(v_k))      (θ_k's sighting moved to the winner's centre along A_rs)
+    A*, C and the output updates as above; w_r, w_rs and t stay (the Kohonen step and the
+    schedules count trials, and the budget is counted in trials).
+For the first pair θ_k + A_rs (c_rs − f(v0)) is MRS's θ* itself when θ0 is the unclipped coarse
+move; for later ones MRS's form θ_rs + A_rs (f(u) − f(v_k)) would pull θ_rs towards itself as
+v_k nears u. This adds k − 1 Widrow-Hoff steps per trial along the fine moves' own directions
+(envs/studies/pose_tail.py measured k = 1-4 on validation objects).
 What the map starts from: the joint ranges, one taught pose (every θ_rs starts there), the image
 size (w_r start uniformly in the image, w_rs uniformly within a quarter image of zero) and
 A = 0. A starts learning from the exploration noise of training fine moves (``explore=True``
@@ -327,8 +338,14 @@ class HierarchicalSOM(Learner):
         return self._clip(theta)
 
     # ----------------------------------------------------------------------------- learning
-    def learn(self, u: Array, theta0: Array, v0: Array, theta1: Array, v1: Array) -> bool:
+    def learn(
+        self, u: Array, theta0: Array, v0: Array, theta1: Array, v1: Array, coarse: bool = True
+    ) -> bool:
         """One trial: target u, coarse θ0 -> sensed v0, fine θ1 -> sensed v1 (module docstring).
+
+        ``coarse=False``: θ0 -> v0 is a later move of the same trial (fine move k -> k + 1):
+        θ* = θ0 + A_rs (c_rs − f(v0)), and the input weights and t stay (module docstring,
+        "Later pairs").
 
         Returns False (and learns nothing) when v0 or v1 holds NaN (a marker not seen) or the
         sensed change is below ``min_dv``. Raises ValueError for a wrong shape or a NaN in u,
@@ -357,17 +374,21 @@ class HierarchicalSOM(Learner):
         r, s = (int(i[0]) for i in self.winners(f[None]))
         centre = self.centre(np.array([r]), np.array([s]))[0]  # (12,) before the update
         a = self.A[r, s]  # (J, 12)
-        theta_star = self.theta[r, s] + a @ (f - f0)
+        if coarse:
+            theta_star = self.theta[r, s] + a @ (f - f0)
+        else:  # the pair's first move, moved to the winner's centre along A_rs
+            theta_star = theta0 + a @ (centre - f0)
         self.df_cov += WHITEN_RATE * (np.outer(df, df) - self.df_cov)
         floor = WHITEN_FLOOR * np.trace(self.df_cov) / PIXELS
         g = np.linalg.solve(self.df_cov + floor * np.eye(PIXELS), df)  # (12,) C⁻¹ Δf
         a_star = a + np.outer(theta1 - theta0 - a @ df, g) / (g @ df)
         eps, sigma, eps_out, sigma_out, _ = self.params()
-        box, h = self._positions.neighbours(r, sigma)
-        view = self._positions.view(self.w_pos, box)
-        view += (eps * h)[..., None] * (f[:4] - view)
-        view, h = self._box(self.w_ori, r, s, sigma)
-        view += (eps * h)[..., None] * (f[4:] - view)
+        if coarse:
+            box, h = self._positions.neighbours(r, sigma)
+            view = self._positions.view(self.w_pos, box)
+            view += (eps * h)[..., None] * (f[:4] - view)
+            view, h = self._box(self.w_ori, r, s, sigma)
+            view += (eps * h)[..., None] * (f[4:] - view)
         view, h = self._box(self.theta, r, s, sigma_out)
         if self.config.transport:  # θ* moved to every leaf's own (new) centre along A*
             box_p = self._boxes(r, s, sigma_out)[0]
@@ -383,7 +404,7 @@ class HierarchicalSOM(Learner):
         view, h = self._box(self.A, r, s, sigma_out)
         view += (eps_out * h)[..., None, None] * (a_star - view)
         np.clip(self.theta, self.lower, self.upper, out=self.theta)
-        self.t += 1
+        self.t += int(coarse)
         return True
 
     def _boxes(self, r: int, s: int, sigma: float) -> tuple[tuple[slice, ...], tuple[slice, ...]]:
