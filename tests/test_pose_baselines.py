@@ -98,3 +98,26 @@ def test_bad_input_is_one_line_value_error(kind, oracle, targets):
         controller.act(u, u)
     with pytest.raises(ValueError, match="6 finite joint angles"):
         kind(oracle.cameras.triangulate, BASE_POS, start=np.zeros(3))
+
+
+@pytest.mark.parametrize("orientations", ["ball:30", "yaw:90,tilt:45"])
+def test_the_floor_commands_inside_the_action_box_and_grasps_every_object(orientations):
+    """Through the env (the default task box as action space), the exact pose IK picks a
+    branch inside the box: every object grasped to 1e-6 m and rad, no command clipped. Over the
+    joint ranges alone its nearest branch can lie outside the box (the other wrist flip), and
+    the env's clipping then sends the hand elsewhere."""
+    from envs.cli.controllers import make_pose_floor
+    from envs.grasp import GraspEnv
+
+    env = GraspEnv(sensing="project", control="kinematic", orientations=orientations)
+    floor = make_pose_floor("pose_ik", env)
+    env.reset(seed=5)
+    for _ in range(150):
+        env.reset()
+        floor.reset()
+        command = floor.act(env.sensed_target())
+        assert np.all(command >= env.action_lower) and np.all(command <= env.action_upper)
+        _, _, _, _, info = env.step(command)
+        assert not info["clipped"]
+        assert info["distance"] < 1e-6 and info["orientation_error"] < 1e-6
+    env.close()

@@ -125,4 +125,5 @@ def make_pose_floor(spec: str, env) -> Controller:
     if not isinstance(base, GraspEnv):
         raise ValueError(f"{spec} needs a pose env (PumaGrasp-v0); for a reach env use {SPECS}")
     floor = PoseIK if spec == "pose_ik" else PoseJacobianIK
-    return floor(base.nominal_stereo.triangulate, BASE_POS)
+    box = {"lower": base.action_lower, "upper": base.action_upper}  # the commands it may send
+    return floor(base.nominal_stereo.triangulate, BASE_POS, **box)

@@ -43,10 +43,17 @@ class _PoseFloor(Controller):
         triangulate: pixels (N, 4) -> world points (N, 3), the nominal cameras.
         base: world position (3,) of the PUMA's frame 0, m.
         start: joints (6,) to start from and to return to on ``reset()`` (default ``READY``).
+        lower, upper: the box (6,) rad every command lies in (default: the joint ranges; an
+            env's action space may be narrower: ``PumaGrasp-v0``'s task box).
     """
 
     def __init__(
-        self, triangulate: Triangulate, base: np.ndarray, start: np.ndarray | None = None
+        self,
+        triangulate: Triangulate,
+        base: np.ndarray,
+        start: np.ndarray | None = None,
+        lower: np.ndarray | None = None,
+        upper: np.ndarray | None = None,
     ) -> None:
         if not callable(triangulate):
             raise TypeError("triangulate must be callable: (N, 4) pixels -> (N, 3) world points")
@@ -57,7 +64,11 @@ class _PoseFloor(Controller):
         start = READY if start is None else np.asarray(start, dtype=float)
         if start.shape != (6,) or not np.all(np.isfinite(start)):
             raise ValueError(f"start must be 6 finite joint angles (rad), got {start}")
-        self.start = np.clip(start, DH.lower, DH.upper)
+        self.lower = DH.lower.copy() if lower is None else np.maximum(lower, DH.lower)
+        self.upper = DH.upper.copy() if upper is None else np.minimum(upper, DH.upper)
+        if self.lower.shape != (6,) or not np.all(self.lower <= self.upper):
+            raise ValueError(f"lower {self.lower} and upper {self.upper} are not a joint box")
+        self.start = np.clip(start, self.lower, self.upper)
         self.previous = self.start.copy()
         self._goal: np.ndarray | None = None  # the pose (frame 0) of the last command's goal
         self.last_reachable = True
@@ -96,10 +107,12 @@ class _PoseFloor(Controller):
 
 class PoseIK(_PoseFloor):
     """Exact pose IK from the sensed object pose, the branch nearest the current joints
-    (module docstring). ``last_reachable``: some branch had every joint in range."""
+    among those inside the command box (module docstring). ``last_reachable``: some branch had
+    every joint in range and in the box."""
 
     def solve(self, goal: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, bool]:
         thetas, valid = pose_ik_all(goal)  # (8, 6), (8,)
+        valid &= np.all((thetas >= self.lower) & (thetas <= self.upper), axis=-1)
         distance = np.linalg.norm(thetas - current, axis=-1)
         candidates = np.flatnonzero(valid) if valid.any() else np.arange(len(thetas))
         best = candidates[np.argmin(distance[candidates])]
@@ -123,8 +136,10 @@ class PoseJacobianIK(_PoseFloor):
         tolerance: float = TOLERANCE,
         max_iterations: int = MAX_ITERATIONS,
         max_step: float = MAX_STEP,
+        lower: np.ndarray | None = None,
+        upper: np.ndarray | None = None,
     ) -> None:
-        super().__init__(triangulate, base, start)
+        super().__init__(triangulate, base, start, lower, upper)
         if not (damping > 0 and tolerance > 0 and max_iterations >= 1 and max_step > 0):
             raise ValueError(
                 "damping, tolerance, max_step must be > 0 and max_iterations >= 1; got "
@@ -140,7 +155,7 @@ class PoseJacobianIK(_PoseFloor):
         return np.concatenate([goal[:3, 3] - T[:3, 3], orientation_error(goal[:3, :3], T[:3, :3])])
 
     def solve(self, goal: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, bool]:
-        theta = np.clip(current, DH.lower, DH.upper)
+        theta = np.clip(current, self.lower, self.upper)
         error = self.pose_error(goal, theta)
         damping2 = self.damping**2 * np.eye(6)
         iterations = 0
@@ -148,7 +163,7 @@ class PoseJacobianIK(_PoseFloor):
             J = jacobian(theta)  # (6, 6)
             step = J.T @ np.linalg.solve(J @ J.T + damping2, error)
             step *= min(1.0, self.max_step / max(np.linalg.norm(step), 1e-300))
-            theta = np.clip(theta + step, DH.lower, DH.upper)
+            theta = np.clip(theta + step, self.lower, self.upper)
             error = self.pose_error(goal, theta)
             iterations += 1
         self.last_iterations = iterations
