@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from envs.harness.evaluation import TAIL_BOUNDS
 from envs.harness.streams import generator
 from envs.harness.training import TRAINING_PAIRS
 from envs.studies.grasp_learning import moves, train
@@ -45,9 +46,6 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "halving": {"refine": True, "backtrack": True, "trust_radius": 0.0},
     "trust": {"refine": True, "backtrack": True, "trust_radius": 0.2},
 }
-#: An object is counted in the tail past this position (m) or orientation (rad) error.
-TAIL_POSITION = 1e-3
-TAIL_ORIENTATION = np.radians(1.0)
 #: The spawn key of the map's own generator (apart from every stream of envs.harness.streams).
 MAP_SPAWN_KEY = (7,)
 
@@ -93,7 +91,7 @@ def rows_of(
     out = []
     for k in report:
         p, a = position[:, k], orientation[:, k]
-        bad = (p > TAIL_POSITION) | (a > TAIL_ORIENTATION)
+        bad = (p > TAIL_BOUNDS[0]) | (a > TAIL_BOUNDS[1])  # over 1 mm or 1°
         out.append(
             Row(
                 range_name,
