@@ -63,8 +63,8 @@ class GraspEnv(ReachEnv):
     ``action_range="task"`` (the default) the box is the task's joint box
     (:func:`~models.puma560.grasp.task_joint_box`): the smallest box of the joints that grasp
     4 096 of the range's objects; a uniformly random action there leaves the hand in both
-    cameras' rendered views about 3 times in 4 (1 in 4 over the whole joint ranges). An object
-    whose grasping joints fall outside it (about 1 in 700) is drawn again, so the exact grasp
+    cameras' rendered views 73 % of the time (27 % over the whole joint ranges). An object whose
+    grasping joints fall outside it (1 in 290) is drawn again, so the exact grasp
     is always an action. ``action_range="joints"``: the joint ranges.
 
     ## Observation space
@@ -98,7 +98,7 @@ class GraspEnv(ReachEnv):
       the two fitted orientations (rad).
     - ``reward_unseen``: minus the PUMA's reach (0.86 m) when some hand marker was not seen by
       both cameras after the move (``info["visible_effector"]``), else 0. With the default
-      action box a random action keeps the hand in both rendered views 3 times in 4.
+      action box a random action keeps the hand in both rendered views 73 % of the time.
 
     Success is judged on the ground truth: ``info["is_success"]`` is ``distance <
     success_threshold`` and ``orientation_error < orientation_threshold``.
