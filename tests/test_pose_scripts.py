@@ -45,7 +45,9 @@ def test_evaluate_gives_position_and_orientation_beside_the_floor(run, tmp_path,
     text = capsys.readouterr().out
     som, floor, jacobian = summary["controllers"]
     assert [som["controller"], floor["controller"]] == ["hierarchical som", "pose_ik"]
-    assert "fine 3 [mm / % / deg]" in text and "pose_jacobian" in text
+    assert "pose_jacobian" in text
+    header = next(r for r in text.splitlines() if r.startswith("controller"))
+    assert header.split()[:5] == ["controller", "move", "mean", "mm", "%"] and ">1mm|1deg" in header
     for row in (floor, jacobian):  # exact projection, exact IK: no error at all
         assert max(row["mean_mm"]) < 1e-6 and max(row["mean_deg"]) < 1e-6
     assert som["mean_mm"][-1] > 1e-3 and som["mean_deg"][-1] > 1e-3
@@ -53,9 +55,17 @@ def test_evaluate_gives_position_and_orientation_beside_the_floor(run, tmp_path,
     np.testing.assert_allclose(
         som["mean_percent_reach"], np.array(som["mean_mm"]) / (10 * ARM_REACH), rtol=1e-3
     )
-    line = next(r for r in text.splitlines() if r.startswith("hierarchical som"))
-    first = f"{som['mean_mm'][0]:.3f} / {som['mean_percent_reach'][0]:.4f} / "
-    assert first + f"{som['mean_deg'][0]:.3f}" in line
+    lines = text.splitlines()
+    at = next(i for i, r in enumerate(lines) if r.startswith("hierarchical som"))
+    for k, line in enumerate(lines[at : at + 4]):  # coarse, then fine 1-3: one line each
+        cells = line.split()[-8:]  # mean mm, %, deg, the two medians, tail, max mm, max deg
+        assert (
+            cells[0] == f"{som['mean_mm'][k]:.3f}"
+            and cells[1] == f"{som['mean_percent_reach'][k]:.4f}"
+        )
+        assert cells[2] == f"{som['mean_deg'][k]:.3f}"
+        assert cells[5] == f"{100 * som['tail_fraction'][k]:.2f}%"
+    assert lines[at + 3].split()[-10:-8] == ["fine", "3"]
     assert json.loads((tmp_path / "evaluation.json").read_text())["env"] == "PumaGrasp-v0"
     assert not list(tmp_path.glob("*.png"))  # the reach plots do not apply
 
