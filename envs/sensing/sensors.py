@@ -6,9 +6,14 @@ same two calls, each giving pixels (4M,) (u_left, v_left, u_right, v_right per m
 task's marker order), NaN in a camera that did not see a marker, and visible (2M,) bool (per
 marker, per camera: one flag per (u, v) pair of the pixels):
 
-- :meth:`Sensor.sense_target` (the target's markers, at reset, with the robot out of view),
-- :meth:`Sensor.sense_effector` (the arm's markers, after a move), given where they are
-  expected (the target's sensed pixels: where a reach or a grasp aims).
+- :meth:`Sensor.sense_target` (the target's markers, at reset: the reach task's with the robot
+  out of view, the pose task's with everything in view),
+- :meth:`Sensor.sense_effector` (the arm's markers, after a move: the reach task's without the
+  target, the pose task's with the object in view), given where they are expected (the
+  target's sensed pixels: where a reach or a grasp aims).
+
+Which geom groups a rendering draws follows the marker's colour
+(:attr:`~envs.sensing.marker_detection.MarkerColour.together`).
 
 A sensor keeps no GL resources of its own: rendering goes through the scene's
 :class:`~envs.sensing.stereo.StereoRig`, whose renderers start at the first rendering, so an

@@ -242,9 +242,10 @@ class StereoRig(CameraPair):
     ) -> tuple[np.ndarray, np.ndarray]:
         """Render both cameras and find the image centre of one coloured sphere.
 
-        Only the geom groups that a real camera would see for that marker are drawn: the target
-        is sensed with the robot out of view, the effector marker with the robot (which may
-        occlude it) but without the target (which it reaches and would otherwise hide).
+        Only the geom groups that a real camera would see for that marker are drawn: the reach
+        task's target is sensed with the robot out of view, its effector marker with the robot
+        (which may occlude it) but without the target (which it reaches and would otherwise
+        hide); the pose task's markers (``MarkerColour.together``) with everything in view.
 
         Without ``radius`` (the target) the centre comes from the blob's pixels
         (:func:`envs.sensing.marker_detection.find_sphere`: a blob cut by the border or not filling
