@@ -200,6 +200,7 @@ class GraspEnv(ReachEnv):
         self._probe = mujoco.MjData(self.model)  # the arm where an episode starts, for _hidden
         self._keep_arm = False  # the episode being reset starts where the last one ended
         self._cameras = [self.model.camera(name).id for name in self.stereo.camera_names]
+        self._geom = np.zeros(1, dtype=np.int32)  # mj_ray's output: the geom hit
         #: The exact IK joints (6,) rad that grasp the current object (ground truth, for
         #: evaluation and tests; a learner does not see them).
         self.target_joints = np.full(6, np.nan)
@@ -223,6 +224,10 @@ class GraspEnv(ReachEnv):
         shift = self.perturbation.base_shift
         box = self.spec_robot.workspace
         box = BoxWorkspace(box.lower + shift, box.upper + shift)
+        probe = self._probe  # the arm where the episode starts, once for every draw
+        probe.qpos[:] = self.data.qpos if self._keep_arm else self.model.key_qpos[self._home]
+        mujoco.mj_kinematics(self.model, probe)
+        mujoco.mj_camlight(self.model, probe)
         while True:
             pose, self.target_joints = sample_grasp_pose(
                 self.np_random, box, BASE_POS + shift, self.orientations
@@ -257,12 +262,9 @@ class GraspEnv(ReachEnv):
     def _hidden(self, points: np.ndarray) -> bool:
         """Whether the robot, where the episode starts (``park``, or where the last one ended
         with ``keep_arm``), stands between a camera and the centre of a marker at ``points``
-        (3, 3) (MuJoCo's ray casting against the robot's and its markers' geoms)."""
-        probe = self._probe
-        probe.qpos[:] = self.data.qpos if self._keep_arm else self.model.key_qpos[self._home]
-        mujoco.mj_kinematics(self.model, probe)
-        mujoco.mj_camlight(self.model, probe)
-        geom = np.zeros(1, dtype=np.int32)
+        (3, 3) (MuJoCo's ray casting against the robot's and its markers' geoms, with the arm
+        of ``_probe``, which :meth:`_draw_target` places)."""
+        probe, geom = self._probe, self._geom
         for camera in self._cameras:
             origin = probe.cam_xpos[camera]
             for point in points:

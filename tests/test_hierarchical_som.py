@@ -268,16 +268,22 @@ def _feature_jacobian(som, oracle, theta, h=1e-6):
     return np.stack(columns, axis=1)
 
 
+def _overshooting(oracle, gain, offset, **options):
+    """A one-leaf map whose A is ``gain`` (∂f/∂θ)⁺ at READY, the target u of the hand at
+    READY + ``offset`` (6,) rad, its features f and the coarse command: (som, u, f, θ0)."""
+    som = _one_leaf(oracle, refine=False, **options)
+    som.A[0, 0] = gain * np.linalg.pinv(_feature_jacobian(som, oracle, READY))
+    u = oracle.hand_pixels(READY + np.asarray(offset))
+    return som, u, som.features(u), som.act(u)
+
+
 @pytest.mark.parametrize("backtrack", [False, True])
 def test_backtracking_turns_overshooting_fine_moves_into_converging_ones(oracle, backtrack):
     """A = 2.6 (∂f/∂θ)⁺: every full fine step overshoots by 1.6× (the errors grow); a
     backtracked one, from the best pose with half the step, overshoots by 0.3× (they fall).
     The first releases' halving (``trust_radius=0``)."""
-    som = _one_leaf(oracle, refine=False, backtrack=backtrack, trust_radius=0.0)
-    som.A[0, 0] = 2.6 * np.linalg.pinv(_feature_jacobian(som, oracle, READY))
-    u = oracle.hand_pixels(READY + np.array([0.004, -0.003, 0.002, 0.01, -0.008, 0.006]))
-    f = som.features(u)
-    theta = som.act(u)
+    offset = [0.004, -0.003, 0.002, 0.01, -0.008, 0.006]
+    som, u, f, theta = _overshooting(oracle, 2.6, offset, backtrack=backtrack, trust_radius=0.0)
     errors = []
     for _ in range(10):
         fv = som.features(oracle.hand_pixels(theta))
@@ -328,11 +334,9 @@ def test_trust_region_caps_grows_and_shrinks_the_fine_steps(oracle):
     """A = 4 (∂f/∂θ)⁺: the first fine step is Ā e scaled to a largest joint change of ρ0; the
     radius doubles after a move that beat the best and halves after an undone one."""
     rho = 0.01
-    som = _one_leaf(oracle, refine=False, trust_radius=rho)
-    som.A[0, 0] = 4.0 * np.linalg.pinv(_feature_jacobian(som, oracle, READY))
-    u = oracle.hand_pixels(READY + np.array([0.05, -0.04, 0.03, 0.1, -0.08, 0.06]))
-    f = som.features(u)
-    theta = som.act(u)
+    som, u, f, theta = _overshooting(
+        oracle, 4.0, [0.05, -0.04, 0.03, 0.1, -0.08, 0.06], trust_radius=rho
+    )
     radii = []
     for _ in range(6):
         v = oracle.hand_pixels(theta)

@@ -165,15 +165,6 @@ class OrientationRange:
         lean = rotvec_to_matrix(tilt * np.array([math.cos(azimuth), math.sin(azimuth), 0.0]))
         return lean @ turn @ UPRIGHT_ORIENTATION
 
-    def contains(self, R: np.ndarray) -> bool:
-        """Whether orientation ``R`` (3, 3) lies in the range (to 1e-9 rad)."""
-        if self.kind == "ball":
-            return bool(orientation_angle(R, NOMINAL_ORIENTATION) <= self.tilt + 1e-9)
-        tilt = math.acos(min(1.0, max(-1.0, -float(R[2, 2]))))
-        turn = _upright(R) @ UPRIGHT_ORIENTATION.T  # the lean undone: a turn about the vertical
-        yaw = math.atan2(float(turn[1, 0]), float(turn[0, 0]))
-        return tilt <= self.tilt + 1e-9 and abs(yaw) <= self.yaw + 1e-9
-
 
 #: The kinds of :class:`OrientationRange`.
 ORIENTATION_KINDS = ("yaw_tilt", "ball")
@@ -275,17 +266,16 @@ _TASK_BOX_SEED = np.random.SeedSequence(560, spawn_key=(9,))
 
 
 @lru_cache(maxsize=16)
-def _joint_box(spec: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+def _joint_box(orientations: OrientationRange) -> tuple[tuple[float, ...], tuple[float, ...]]:
     from models.puma560 import BASE_POS, WORKSPACE
 
-    orientations = OrientationRange.parse(spec)
     rng = np.random.Generator(np.random.PCG64(_TASK_BOX_SEED))
     joints = np.array(
         [
             sample_grasp_pose(rng, WORKSPACE, BASE_POS, orientations)[1]
             for _ in range(TASK_BOX_OBJECTS)
         ]
-    )
+    )  # tuples below: the cached box cannot be changed through a caller's array
     return tuple(joints.min(axis=0).tolist()), tuple(joints.max(axis=0).tolist())
 
 
@@ -296,5 +286,5 @@ def task_joint_box(orientations: OrientationRange) -> tuple[np.ndarray, np.ndarr
     near where objects are: a uniformly random one leaves the hand in both cameras' rendered
     views 73 % of the time, against 27 % over the whole joint ranges
     (docs/envs/PumaGrasp-v0.md). Computed once per range and process."""
-    low, high = _joint_box(orientations.spec())
+    low, high = _joint_box(orientations)
     return np.array(low), np.array(high)
