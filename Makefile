@@ -98,6 +98,7 @@ docs: $(VENV)/.installed-docs
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .
 	$(BIN)/ruff check .
+	$(BIN)/mypy  # the files in pyproject.toml's [tool.mypy]
 
 # Sweeps on Ray: the extra "sweep" in the same venv.
 $(VENV)/.sweep: $(VENV)/.installed $(LOCKS)/sweep.txt
