@@ -78,13 +78,14 @@ def test_video_shows_progress_on_stderr(tmp_path):
 
 
 def test_reports_say_what_happened_not_whether_a_goal_was_met():
-    from envs.cli import bench_envs, train_natenet
+    from envs.cli import train_natenet
+    from envs.studies import env_speed
 
     row = {"env": "RiacsReach-v0", "sensing": "render", "control": "servo", "steps_per_s": 10.0,
            "ms_per_step": 100.0, "ratio_to_peer": None}  # fmt: skip
     results = {"peer": {"steps_per_s": 1000.0}, "rows": [row], "image": [320, 240],
                "sense_ms": {}}  # fmt: skip
-    text = bench_envs.format_table(results)
+    text = env_speed.format_table(results)
     summary = {"position_mm_mean": 1.0, "position_mm_max": 2.0, "orientation_deg_mean": 0.5,
                "command_time_us": 1.0, "step_time_us": 2.0}  # fmt: skip
     metrics = {"tracking": {"NATEnet": {"circle": summary}},

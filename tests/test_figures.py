@@ -15,7 +15,11 @@ import numpy as np
 import pytest
 from test_evaluation import _ScriptedEnv, _Still
 
-from envs.cli.reproduce_brause import (
+from envs.cli.riacs_dataset import projections_figure
+from envs.harness import plots
+from envs.harness.evaluation import evaluate
+from envs.studies.adaptation_media import FINE, adaptation_curves
+from envs.studies.brause_figures import (
     PLOT_N,
     fit_figure,
     joints_figure,
@@ -23,10 +27,6 @@ from envs.cli.reproduce_brause import (
     path_error_figure,
     storage_error_figure,
 )
-from envs.cli.riacs_dataset import projections_figure
-from envs.harness import plots
-from envs.harness.evaluation import evaluate
-from envs.studies.adaptation_media import FINE, adaptation_curves
 from envs.studies.rl_comparison import THRESHOLDS, Curve
 from envs.studies.rl_report import figure as rl_figure
 from envs.studies.sweep_plots import error_vs_neurons_figure

@@ -21,9 +21,10 @@ from pathlib import Path
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
+from envs.cli import options
 from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
-from envs.reach import CONTROL_MODES, REACH_ENV_IDS
+from envs.reach import REACH_ENV_IDS
 from envs.studies.adaptation import (
     CHANGES,
     MAP_CONTINUAL,
@@ -36,7 +37,6 @@ from envs.studies.adaptation import (
 )
 from envs.studies.adaptation_media import curves_figure, phases_video
 from learners.persistence import write_atomic
-from learners.som.config import ABAR
 from learners.som.controller import VisuomotorSOM
 
 
@@ -44,9 +44,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser = cli.parser(__doc__)
     parser.add_argument("--envs", nargs="+", default=list(REACH_ENV_IDS), choices=REACH_ENV_IDS)
     parser.add_argument("--changes", nargs="+", default=list(CHANGES), choices=list(CHANGES))
-    parser.add_argument("--sensing", default="project", choices=("render", "project"))
-    parser.add_argument("--control", default="kinematic", choices=CONTROL_MODES)
-    parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    options.SENSING.add(
+        parser,
+        default=RunConfig.sensing,
+        choices=options.WHOLE_IMAGE_SENSING,
+        note=options.run_setting_note("sensing"),
+    )
+    options.CONTROL.add(parser, default=RunConfig.control, note=options.run_setting_note("control"))
+    options.SEED.add(parser)
     parser.add_argument("--train-trials", type=cli.positive_int, default=10_000)
     parser.add_argument(
         "--pre-every", type=cli.positive_int, default=2000, help="evaluations before the change"
@@ -57,7 +62,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument(
         "--every", type=cli.positive_int, default=250, help="evaluations after the change"
     )
-    parser.add_argument("--eval-trials", type=cli.positive_int, default=1000)
+    options.EVAL_TRIALS.add(parser, default=1000)
     parser.add_argument(
         "--pretrained",
         type=Path,
@@ -65,14 +70,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
         "run's maps) and train it --warmup trials in this setting before the change",
     )
     parser.add_argument("--warmup", type=cli.positive_int, default=300)
-    parser.add_argument(
-        "--abar",
+    options.ABAR_OPTION.add(
+        parser,
         default=RunConfig.abar,
-        choices=ABAR,
         help="Ā of the evaluations' fine moves: local-fit (this project's) or average (MRS)",
     )
     parser.add_argument("--video-trials", type=cli.nonnegative_int, default=3, help="0: no video")
-    parser.add_argument("--out", type=Path, default=Path("runs/adapt"))
+    options.OUT.add(parser, default=Path("runs/adapt"))
     args = parser.parse_args(argv)
     start = time.monotonic()
 
@@ -117,8 +121,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     ),
                 ]
                 video = folder / f"video_{change}.mp4"
-                options = {"sensing": args.sensing, "control": args.control}
-                phases_video(env_id, options, phases, video, args.video_trials, args.seed + 1)
+                setting = {"sensing": args.sensing, "control": args.control}
+                phases_video(env_id, setting, phases, video, args.video_trials, args.seed + 1)
                 print(f"  wrote {video}", flush=True)
         title = f"{env_id}, {args.sensing} + {args.control}, {args.eval_trials} held-out targets"
         print(f"  wrote {curves_figure(pre, results, title, folder / 'curves.png')}", flush=True)

@@ -21,6 +21,7 @@ import numpy as np
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
 from envs import StereoRig
 from envs.cli import common as cli
+from envs.cli import options
 from envs.sizes import format_lattice
 from learners.baselines.analytic_ik import AnalyticIK
 from learners.baselines.jacobian_ik import JacobianIK
@@ -40,7 +41,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument(
         "--repeats", type=cli.positive_int, default=3, help="timings repeated, best kept"
     )
-    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    options.SEED.add(p)
     return p.parse_args(argv)
 
 

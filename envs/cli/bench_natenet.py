@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from envs.cli import common as cli
+from envs.cli import options
 from learners.natenet import NATEnet
 from models.paths import sample_path
 from models.puma560.kinematics import jacobian
@@ -36,8 +37,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )
     ap.add_argument("--queries", type=cli.positive_int, default=2000)
     ap.add_argument("--repeats", type=cli.positive_int, default=3)
-    ap.add_argument("--seed", type=cli.nonnegative_int, default=0)
-    ap.add_argument("--out", type=Path, default=Path("runs/bench_natenet"))
+    options.SEED.add(ap)
+    options.OUT.add(ap, default=Path("runs/bench_natenet"))
     return ap.parse_args(argv)
 
 

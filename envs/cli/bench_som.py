@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from envs.cli import common as cli
+from envs.cli import options
 from envs.sensing.stereo import CameraPair, PinholeCamera
 from learners.baselines.analytic_ik import AnalyticIK
 from learners.som.controller import VisuomotorSOM, kernels
@@ -210,9 +211,7 @@ def fine_moves(maps: dict[str, VisuomotorSOM], inputs, block: int, seed: int) ->
 
 def main(argv: list[str] | None = None) -> dict:
     parser = cli.parser(__doc__)
-    parser.add_argument(
-        "--trials", type=cli.positive_int, default=10_000, help="trials = t_max of the run"
-    )
+    options.TRIALS.add(parser, default=10_000, help="trials = t_max of the run")
     parser.add_argument(
         "--block", type=cli.positive_int, default=100, help="trials per turn of map and peer"
     )
@@ -222,15 +221,15 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--batch", type=cli.positive_int, default=10_000, help="targets per act_batch call"
     )
-    parser.add_argument("--lattice", type=cli.lattice, default="12x7x4")
+    options.LATTICE.add(parser, default="12x7x4")
     parser.add_argument(
         "--big", type=cli.lattice_or_none, default="40x40x40", help="none: skip (default: 40x40x40)"
     )
     parser.add_argument(
         "--big-trials", type=cli.positive_int, default=2000, help="t_max of the big lattice"
     )
-    parser.add_argument("--seed", type=cli.nonnegative_int, default=0)
-    parser.add_argument("--out", type=Path, default=Path("runs/bench_som"))
+    options.SEED.add(parser)
+    options.OUT.add(parser, default=Path("runs/bench_som"))
     args = parser.parse_args(argv)
     lattice, n = args.lattice, math.prod(args.lattice)
     inputs = _inputs(np.random.default_rng(args.seed), args.trials)

@@ -21,7 +21,8 @@ from pathlib import Path
 
 import envs  # noqa: F401  (GL back-end, registration)
 from envs.cli import common as cli
-from envs.grasp import GRASP_ENV_IDS
+from envs.cli import options
+from envs.harness.training import RunConfig
 from envs.reach import MAX_EPISODE_STEPS, REACH_ENV_IDS
 from envs.studies import rl_report, rl_runs
 from envs.studies.rl_comparison import METHODS, VARIANTS, Curve, checkpoints
@@ -47,11 +48,14 @@ def import_torch_first():
 
 def main(argv: list[str] | None = None) -> list[Curve]:
     p = cli.parser(__doc__)
-    p.add_argument(
-        "--env", nargs="+", choices=REACH_ENV_IDS + GRASP_ENV_IDS, default=list(REACH_ENV_IDS)
+    options.ENV.add(p, nargs="+", default=list(REACH_ENV_IDS), help="the env ids")
+    options.SENSING.add(
+        p,
+        default=RunConfig.sensing,
+        choices=options.WHOLE_IMAGE_SENSING,
+        note=options.run_setting_note("sensing"),
     )
-    p.add_argument("--sensing", choices=("project", "render"), default="project")
-    p.add_argument("--control", choices=("kinematic", "servo"), default="kinematic")
+    options.CONTROL.add(p, default=RunConfig.control, note=options.run_setting_note("control"))
     p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     p.add_argument("--seeds", nargs="+", type=cli.nonnegative_int, default=[0, 1, 2])
     p.add_argument(
@@ -60,9 +64,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     p.add_argument(
         "--checkpoints", type=cli.positive_int, default=6, help="evaluations, log-spaced"
     )
-    p.add_argument(
-        "--targets", type=cli.positive_int, default=1000, help="held-out targets per evaluation"
-    )
+    options.TARGETS.add(p, help="held-out targets per evaluation")
     p.add_argument(
         "--variants",
         nargs="+",
@@ -93,7 +95,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
         default=[],
         help="tabulate at these env steps too (the checkpoint at or below each), beside the end",
     )
-    p.add_argument("--out", type=Path, default=Path("runs/compare_rl"))
+    options.OUT.add(p, default=Path("runs/compare_rl"))
     p.add_argument("--report-only", action="store_true", help="table and plots only, no runs")
     args = p.parse_args(argv)
     if args.report_only:

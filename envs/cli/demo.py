@@ -16,7 +16,7 @@ import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
-from envs.cli import evaluate, train, video
+from envs.cli import evaluate, options, train, video
 from envs.composite import CompositeView, draw_inset
 from envs.reach import ReachEnv
 from models import available_models
@@ -54,11 +54,9 @@ def scene_images(out: Path) -> list[Path]:
 
 def main(argv: list[str] | None = None) -> None:
     p = cli.parser(__doc__)
-    p.add_argument("--out", type=Path, default=Path("runs/demo"))
-    p.add_argument("--trials", type=cli.positive_int, default=10_000)
-    p.add_argument(
-        "--targets", type=cli.positive_int, default=300, help="held-out targets per evaluation"
-    )
+    options.OUT.add(p, default=Path("runs/demo"))
+    options.TRIALS.add(p, default=10_000)
+    options.TARGETS.add(p, default=300, help="held-out targets per evaluation")
     args = p.parse_args(argv)
     start = time.time()
     results = {}

@@ -19,6 +19,7 @@ import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
+from envs.cli import options
 from envs.cli.controllers import make_controller
 from envs.harness.film import TrialFilm, side_by_side
 from envs.harness.grasp_film import grasp_frames
@@ -73,9 +74,9 @@ def write_gif(frames: list[np.ndarray], path: Path, fps: float) -> Path:
 
 def main(argv: list[str] | None = None) -> list[Path]:
     parser = cli.parser(__doc__)
-    parser.add_argument("--out", type=Path, default=Path("docs/assets"))
-    parser.add_argument("--trials", type=cli.positive_int, default=2)
-    parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
+    options.OUT.add(parser, default=Path("docs/assets"))
+    options.TRIALS.add(parser, default=2)
+    options.SEED.add(parser, default=1)
     args = parser.parse_args(argv)
     written = []
     for env_id in REACH_ENV_IDS:

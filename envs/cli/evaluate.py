@@ -23,6 +23,7 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
+from envs.cli import options
 from envs.cli.controllers import (
     POSE_SPECS,
     SPECS,
@@ -37,11 +38,10 @@ from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, Ticking, evaluate
 from envs.harness.run_folder import check_writable, read_metrics, write_json
 from envs.harness.streams import seed_env
-from envs.harness.training import MAP_FILE, METRICS_FILE, Trainer
-from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
+from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
+from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
-from learners.som.config import ABAR, PROTOCOLS
 from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
 
@@ -56,11 +56,7 @@ def main(argv: list[str] | None = None) -> dict:
         type=run_folder,
         help="a train.py run folder (som.npz, metrics.jsonl) or its som.npz",
     )
-    p.add_argument(
-        "--controller",
-        type=controller_spec,
-        help=f"instead of --run: {SPECS}; on PumaGrasp-v0: {POSE_SPECS}",
-    )
+    options.CONTROLLER.add(p, help=f"instead of --run: {SPECS}; on PumaGrasp-v0: {POSE_SPECS}")
     p.add_argument(
         "--compare",
         nargs="*",
@@ -68,30 +64,22 @@ def main(argv: list[str] | None = None) -> dict:
         default=[],
         help="more controllers, as --controller",
     )
-    p.add_argument("--env", choices=REACH_ENV_IDS + GRASP_ENV_IDS, help="default: the run's env")
-    p.add_argument("--sensing", choices=SENSING_MODES, help="default: the run's")
-    p.add_argument("--control", choices=CONTROL_MODES, help="default: the run's")
-    p.add_argument("--image-size", type=cli.image_size,
-                   help="sensing images WIDTHxHEIGHT (default: the run's)")  # fmt: skip
-    p.add_argument("--orientations", type=cli.orientation_range,
-                   help="PumaGrasp-v0: the objects' orientation range (default: the run's, else "
-                   "the env's)")  # fmt: skip
-    p.add_argument("--targets", type=cli.positive_int, default=1000)
-    p.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
-    p.add_argument(
-        "--seed",
-        type=cli.nonnegative_int,
+    options.ENV.add(p, help="default: the run's env")
+    options.SENSING.add(p, note=f"default: the run's, without a run {RunConfig.sensing}")
+    options.CONTROL.add(p, note=f"default: the run's, without a run {RunConfig.control}")
+    options.IMAGE_SIZE.add(p, help="sensing images WIDTHxHEIGHT (default: the run's)")
+    options.ORIENTATIONS.add(p, note="default: the run's, else the env's")
+    options.TARGETS.add(p)
+    options.FINE_MOVES.add(p)
+    options.SEED.add(
+        p,
         default=DEFAULT_SEED,
         help="the evaluation set: held-out targets of the evaluation stream, which no training "
         "run draws for any seed (default: %(default)s)",
     )
-    p.add_argument("--out", type=Path, help="default: RUN/eval or runs/eval")
+    options.OUT.add(p, help="default: RUN/eval or runs/eval")
     p.add_argument("--no-plots", action="store_true")
-    p.add_argument(
-        "--protocol",
-        choices=PROTOCOLS,
-        help="how a SOM moves (default: the protocol it was trained with)",
-    )
+    options.PROTOCOL.add(p, help="how a SOM moves (default: the protocol it was trained with)")
     p.add_argument(
         "--no-refine",
         action="store_true",
@@ -109,10 +97,8 @@ def main(argv: list[str] | None = None) -> dict:
         help="PumaGrasp-v0: the hierarchical map's fine-move trust radius, rad (default: the "
         "map's; 0: the first releases' halving backtrack)",
     )
-    p.add_argument(
-        "--abar",
-        choices=ABAR,
-        help="Ā of a SOM's fine moves (default: the map's; --no-refine: average)",
+    options.ABAR_OPTION.add(
+        p, help="Ā of a SOM's fine moves (default: the map's; --no-refine: average)"
     )
     p.add_argument(
         "--recover",
@@ -133,9 +119,9 @@ def main(argv: list[str] | None = None) -> dict:
                 f"--controller {checkpoint}"
             )
         run_config = vars(Trainer.stored_config(args.run))
-    env_id = args.env or run_config.get("env", "RiacsReach-v0")
-    sensing = args.sensing or run_config.get("sensing", "project")
-    control = args.control or run_config.get("control", "kinematic")
+    env_id = args.env or run_config.get("env", RunConfig.env)
+    sensing = args.sensing or run_config.get("sensing", RunConfig.sensing)
+    control = args.control or run_config.get("control", RunConfig.control)
     width, height = args.image_size or (
         run_config.get("width", IMAGE_WIDTH),
         run_config.get("height", IMAGE_HEIGHT),

@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from envs.cli import common as cli
+from envs.cli import options
 from envs.harness.run_folder import check_writable
 from envs.studies.grasp_learning import (
     FINE_MOVES,
@@ -27,12 +28,12 @@ from learners.som.hierarchical_config import HierarchicalConfig
 
 def main(argv: list[str] | None = None) -> Path:
     p = cli.parser(__doc__)
-    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
-    p.add_argument("--targets", type=cli.positive_int, default=TEST_TARGETS, help="held out")
-    p.add_argument("--fine-moves", type=cli.nonnegative_int, default=FINE_MOVES)
+    options.SEED.add(p)
+    options.TARGETS.add(p, default=TEST_TARGETS, help="held out")
+    options.FINE_MOVES.add(p, default=FINE_MOVES)
     p.add_argument("--trials-per-leaf", type=cli.positive_float, nargs="+",
                    default=list(TRIALS_PER_LEAF), help="training budgets")  # fmt: skip
-    p.add_argument("--out", type=Path, default=Path("runs/grasp_learning.png"))
+    options.OUT.add(p, default=Path("runs/grasp_learning.png"), help="the figure's file")
     args = p.parse_args(argv)
     check_writable(args.out.parent)
     from envs.studies.grasp_learning_plot import write

@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from envs.cli import common as cli
+from envs.cli import options
+from envs.robots import ROBOTS
 from models.analyses import nemecek_accuracy as acc
 from models.arms import arm_kinematics
 
@@ -29,7 +31,7 @@ MM, DEG = 1e3, 180 / np.pi
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
-    p.add_argument("--robot", choices=("puma560", "riacs"), default="puma560")
+    p.add_argument("--robot", choices=tuple(ROBOTS), default="puma560")
     p.add_argument("--pose", type=float, nargs="+", help="joint angles in degrees (default: home)")
     p.add_argument(
         "--levels",
@@ -38,10 +40,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         default=list(LEVELS),
         help="relative deviations (0.001 = 0.1 %%)",
     )
-    p.add_argument(
-        "--seed", type=cli.nonnegative_int, default=0, help="signs of the all-at-once deviation"
-    )
-    p.add_argument("--out", type=Path, default=None, help="default runs/accuracy/<robot>")
+    options.SEED.add(p, help="signs of the all-at-once deviation")
+    options.OUT.add(p, default=None, help="default runs/accuracy/<robot>")
     return p.parse_args(argv)
 
 

@@ -23,6 +23,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from envs.cli import common as cli
+from envs.cli import options
 from envs.harness.plots import save_figure
 from learners.persistence import save_npz
 from models.analyses import riacs_dataset as D
@@ -33,7 +34,7 @@ KIND, VERSION = "riacs-dataset", 1
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
-    p.add_argument("--out", type=Path, default=Path("runs/riacs_dataset"))
+    options.OUT.add(p, default=Path("runs/riacs_dataset"))
     p.add_argument(
         "--stepsize", type=cli.positive_float, default=D.STEP, help="joint step, rad (default π/60)"
     )
@@ -44,7 +45,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         action="store_true",
         help="disjoint split instead of buildtset's sampling with replacement",
     )
-    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    options.SEED.add(p)
     return p.parse_args(argv)
 
 

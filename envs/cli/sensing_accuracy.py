@@ -7,13 +7,13 @@ fraction of the marker that the robot hides.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
+from envs.cli import options
 from envs.reach import REACH_ENV_IDS
 from envs.studies.sensing_accuracy import measure, table
 
@@ -21,10 +21,9 @@ from envs.studies.sensing_accuracy import measure, table
 def main(argv: list[str] | None = None) -> dict:
     p = cli.parser(__doc__)
     p.add_argument("--poses", type=cli.positive_int, default=400, help="random poses per arm")
-    p.add_argument("--image-size", type=cli.image_size, default="320x240",
-                   help="sensing images WIDTHxHEIGHT")  # fmt: skip
-    p.add_argument("--seed", type=cli.nonnegative_int, default=0)
-    p.add_argument("--json", type=Path, help="also write the rows here")
+    options.IMAGE_SIZE.add(p, default="320x240")
+    options.SEED.add(p)
+    options.JSON.add(p, help="also write the rows here")
     args = p.parse_args(argv)
     width, height = args.image_size
     results = {}

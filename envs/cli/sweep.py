@@ -24,6 +24,7 @@ import json
 from pathlib import Path
 
 from envs.cli import common as cli
+from envs.cli import options
 from envs.studies.sweep_grid import expand
 from envs.studies.sweep_on_ray import DEFAULT_CPUS, DEFAULT_RETRIES, run_sweep
 from envs.studies.sweep_plots import error_vs_neurons
@@ -52,11 +53,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p = cli.parser(__doc__)
     p.add_argument("--spec", type=Path, help="JSON or YAML file: axis -> value or list")
     p.add_argument("--grid", action="append", default=[], help="AXIS=V1,V2,... (repeatable)")
-    p.add_argument("--out", type=Path, default=Path("runs/sweep"))
+    options.OUT.add(p, default=Path("runs/sweep"))
     p.add_argument("--address", help="Ray cluster address (default: start Ray locally)")
     p.add_argument("--num-cpus", type=cli.positive_int, default=DEFAULT_CPUS, help="local Ray CPUs")
     p.add_argument("--retries", type=cli.nonnegative_int, default=DEFAULT_RETRIES, help="per cell")
-    p.add_argument("--checkpoint-every", type=cli.positive_int, default=1000, help="trials")
+    options.CHECKPOINT_EVERY.add(p)
     args = p.parse_args(argv)
     grid = {**(load_spec(args.spec) if args.spec else {}), **parse_grid(args.grid)}
     try:

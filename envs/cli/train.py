@@ -31,12 +31,12 @@ from tqdm import tqdm
 import envs  # noqa: F401  (registers the envs)
 from envs import sizes
 from envs.cli import common as cli
+from envs.cli import options
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.training import MAP_FILE, RESUMABLE, TRAINING_PAIRS, RunConfig, Trainer
-from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 from learners.persistence import writing
-from learners.som.config import PROTOCOLS, RULES
+from learners.som.config import RULES
 from learners.som.hierarchical_config import HierarchicalConfig
 from models.puma560.grasp import WIDE
 
@@ -72,44 +72,22 @@ def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str
 def main(argv: list[str] | None = None) -> Path:
     d = RunConfig()
     p = cli.parser(__doc__)
-    p.add_argument("--env", default=d.env, choices=REACH_ENV_IDS + GRASP_ENV_IDS)
-    p.add_argument("--trials", type=cli.positive_int, default=d.trials)
-    p.add_argument("--seed", type=cli.nonnegative_int, default=d.seed)
-    reach, pose = sizes.format_lattice(d.lattice), sizes.format_lattice(_POSE_MAP.position_lattice)
-    p.add_argument("--lattice", type=cli.lattice,
-                   help=f"lattice shape (default {reach}; PumaGrasp-v0: the position lattice, "
-                   f"default {pose})")  # fmt: skip
-    nested = sizes.format_lattice(_POSE_MAP.orientation_lattice)
-    p.add_argument("--orientation-lattice", type=cli.lattice,
-                   help=f"PumaGrasp-v0: the lattice nested at every position node (default "
-                   f"{nested})")  # fmt: skip
-    p.add_argument("--orientations", type=cli.orientation_range,
-                   help=f"PumaGrasp-v0: the objects' orientation range, 'yaw:DEG,tilt:DEG' or "
-                   f"'ball:DEG' (default {WIDE.spec()}; ball:30: the first releases')")  # fmt: skip
+    options.ENV.add(p, default=d.env)
+    options.TRIALS.add(p, default=d.trials)
+    options.SEED.add(p, default=d.seed)
+    add_map_options(p, d)
+    options.ORIENTATIONS.add(p, note=f"default {WIDE.spec()}; ball:30: the first releases'")
     p.add_argument("--training-pairs", type=cli.positive_int,
                    help=f"PumaGrasp-v0: exploratory fine moves per training trial, each learned "
                    f"(default {TRAINING_PAIRS}; 1: the papers' one)")  # fmt: skip
-    p.add_argument("--rule", default=d.rule, choices=RULES)
-    p.add_argument(
-        "--protocol",
-        default=d.protocol,
-        choices=PROTOCOLS,
-        help="mrs: MRS loop with this project's additions; brause: Brause's own (coarse Θ_c, "
-        "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
-    )
-    p.add_argument("--sensing", default=d.sensing, choices=SENSING_MODES)
-    p.add_argument("--control", default=d.control, choices=CONTROL_MODES)
-    size = sizes.format_size(d.width, d.height)
-    p.add_argument("--image-size", type=cli.image_size, default=size,
-                   help="sensing images WIDTHxHEIGHT, e.g. 640x480")  # fmt: skip
-    p.add_argument("--sensing-noise", type=cli.nonnegative_float, default=d.sensing_noise,
-                   help="px: std of a sensed pixel's error; the map's Widrow-Hoff step corrects "
-                   "for it (0: the published step; docs/decisions.md)")  # fmt: skip
+    options.SENSING.add(p, default=d.sensing, note=options.run_setting_note("sensing"))
+    options.CONTROL.add(p, default=d.control, note=options.run_setting_note("control"))
+    options.IMAGE_SIZE.add(p, default=sizes.format_size(d.width, d.height))
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
     p.add_argument("--eval-every", type=cli.positive_int, default=d.eval_every, help="trials")
-    p.add_argument("--eval-trials", type=cli.positive_int, default=d.eval_trials, help="targets")
-    p.add_argument("--checkpoint-every", type=cli.positive_int, default=1000, help="trials")
-    p.add_argument("--out", type=Path, default=Path("runs/train"))
+    options.EVAL_TRIALS.add(p, default=d.eval_trials)
+    options.CHECKPOINT_EVERY.add(p)
+    options.OUT.add(p, default=Path("runs/train"))
     p.add_argument("--resume", action="store_true", help="continue the run saved in --out")
     p.add_argument("--force", action="store_true", help="start over in a folder holding a run")
     args = p.parse_args(argv)
@@ -155,12 +133,38 @@ def main(argv: list[str] | None = None) -> Path:
     return args.out
 
 
-def pose_checked(**options: object) -> RunConfig:
-    """``RunConfig(**options)``; on a pose env a reach-map option is a one-line user error."""
+# ---- The map's options. This block is replaced by add_config_options(p, SOMConfig) (and the
+# pose map's config) once the configs' fields carry the CLI metadata ("help", "choices", "run").
+def add_map_options(p: argparse.ArgumentParser, d: RunConfig) -> None:
+    """The reach map's and the pose map's options (flags as given since the first releases)."""
+    reach, pose = sizes.format_lattice(d.lattice), sizes.format_lattice(_POSE_MAP.position_lattice)
+    options.LATTICE.add(p, help=f"lattice shape (default {reach}; PumaGrasp-v0: the position "
+                        f"lattice, default {pose})")  # fmt: skip
+    nested = sizes.format_lattice(_POSE_MAP.orientation_lattice)
+    p.add_argument("--orientation-lattice", type=cli.lattice,
+                   help=f"PumaGrasp-v0: the lattice nested at every position node (default "
+                   f"{nested})")  # fmt: skip
+    p.add_argument("--rule", default=d.rule, choices=RULES)
+    options.PROTOCOL.add(
+        p,
+        default=d.protocol,
+        help="mrs: MRS loop with this project's additions; brause: Brause's own (coarse Θ_c, "
+        "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
+    )
+    p.add_argument("--sensing-noise", type=cli.nonnegative_float, default=d.sensing_noise,
+                   help="px: std of a sensed pixel's error; the map's Widrow-Hoff step corrects "
+                   "for it (0: the published step; docs/decisions.md)")  # fmt: skip
+
+
+# ---- end of the map's options
+
+
+def pose_checked(**settings: object) -> RunConfig:
+    """``RunConfig(**settings)``; on a pose env a reach-map option is a one-line user error."""
     try:
-        return RunConfig(**options)
+        return RunConfig(**settings)
     except ValueError as exc:
-        if options["env"] not in GRASP_ENV_IDS:
+        if settings["env"] not in GRASP_ENV_IDS:
             raise
         cli.fail(str(exc))
         raise  # not reached: fail exits

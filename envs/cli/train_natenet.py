@@ -22,9 +22,11 @@ import numpy as np
 
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
 from envs.cli import common as cli
+from envs.cli import options
 from envs.harness.plots import save_figure
 from envs.harness.tracking import evaluate, exact_inverse_jacobian, track_episode, train_on_paths
 from envs.harness.video import VideoWriter, annotate
+from envs.track import SENSING_MODES as TRACK_SENSING
 from envs.track import PumaTrackEnv
 from learners import natenet as nn
 from learners.natenet import NATEnet, PathTracker, grid_counts
@@ -42,8 +44,8 @@ PLOT_FLOOR_MM, PLOT_FLOOR_DEG = 1e-3, 1e-4
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = cli.parser(__doc__)
-    ap.add_argument("--out", type=Path, default=Path("runs/natenet"))
-    ap.add_argument("--seed", type=cli.nonnegative_int, default=0)
+    options.OUT.add(ap, default=Path("runs/natenet"))
+    options.SEED.add(ap)
     ap.add_argument("--train-paths", type=cli.positive_int, default=300)
     ap.add_argument(
         "--test-paths", type=cli.positive_int, default=10, help="per test set (circles, lines)"
@@ -66,7 +68,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--T-a", type=cli.positive_float, default=nn.T_A)
     ap.add_argument("--max-nodes", type=cli.positive_int, default=nn.MAX_NODES)
     ap.add_argument("--gain", type=cli.positive_float, default=nn.GAIN)
-    ap.add_argument("--sensing", default="project", choices=("project", "render"))
+    options.SENSING.add(ap, default="project", choices=TRACK_SENSING)
     ap.add_argument("--no-video", action="store_true")
     return ap.parse_args(argv)
 

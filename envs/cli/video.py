@@ -19,10 +19,10 @@ import gymnasium as gym
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
+from envs.cli import options
 from envs.cli.controllers import (
     NAMED,
     POSE_NAMED,
-    SPECS,
     check_task,
     controller_spec,
     make_controller,
@@ -33,7 +33,6 @@ from envs.harness.grasp_film import GraspFilm
 from envs.harness.run_folder import check_writable
 from envs.harness.streams import seed_env
 from envs.harness.video import VideoWriter
-from envs.reach import CONTROL_MODES, REACH_ENV_IDS, SENSING_MODES
 
 
 def controller_name(spec: str, controller) -> str:
@@ -43,21 +42,21 @@ def controller_name(spec: str, controller) -> str:
 
 def main(argv: list[str] | None = None) -> Path:
     parser = cli.parser(__doc__)
-    parser.add_argument("--env", default="PumaReach-v0", choices=REACH_ENV_IDS + GRASP_ENV_IDS)
-    parser.add_argument("--controller", required=True, type=controller_spec, help=SPECS)
+    options.ENV.add(parser, default="PumaReach-v0")
+    options.CONTROLLER.add(parser, required=True)
     parser.add_argument(
         "--compare", type=controller_spec, help="a second controller on the same targets"
     )
-    parser.add_argument("--trials", type=cli.positive_int, default=4)
-    parser.add_argument("--fine-moves", type=cli.nonnegative_int, default=2)
-    parser.add_argument("--seed", type=cli.nonnegative_int, default=1)
-    parser.add_argument("--sensing", default="foveated", choices=SENSING_MODES)
-    parser.add_argument("--control", default="servo", choices=CONTROL_MODES)
+    options.TRIALS.add(parser, default=4)
+    options.FINE_MOVES.add(parser)
+    options.SEED.add(parser, default=1)
+    options.SENSING.add(parser, default="foveated")
+    options.CONTROL.add(parser, default="servo")
     parser.add_argument("--fps", type=cli.positive_float, default=VIDEO_FPS)
     parser.add_argument(
         "--speed", type=cli.positive_float, default=1.0, help="simulated s per s of video"
     )
-    parser.add_argument("--out", type=Path, default=Path("runs/video/eval.mp4"))
+    options.OUT.add(parser, default=Path("runs/video/eval.mp4"), help="the video file")
     args = parser.parse_args(argv)
     check_writable(args.out.parent)  # a read-only folder or a full disk, before any work
 
