@@ -78,8 +78,7 @@ def test_video_shows_progress_on_stderr(tmp_path):
 
 
 def test_reports_say_what_happened_not_whether_a_goal_was_met():
-    from envs.cli import train_natenet
-    from envs.studies import env_speed
+    from envs.studies import env_speed, natenet_tracking
 
     row = {"env": "RiacsReach-v0", "sensing": "render", "control": "servo", "steps_per_s": 10.0,
            "ms_per_step": 100.0, "ratio_to_peer": None}  # fmt: skip
@@ -94,7 +93,7 @@ def test_reports_say_what_happened_not_whether_a_goal_was_met():
     import io
 
     with contextlib.redirect_stdout(io.StringIO()) as out:
-        train_natenet.report(metrics)
+        natenet_tracking.report(metrics)
     for report in (text, out.getvalue()):
         assert not re.search(r"\b(PASS|FAIL|met|missed|goal)\b", report), report
 

@@ -53,15 +53,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     options.CONTROL.add(parser, default=RunConfig.control, note=options.run_setting_note("control"))
     options.SEED.add(parser)
     parser.add_argument("--train-trials", type=cli.positive_int, default=10_000)
-    parser.add_argument(
-        "--pre-every", type=cli.positive_int, default=2000, help="evaluations before the change"
-    )
-    parser.add_argument(
-        "--after", type=cli.positive_int, default=3000, help="trials after the change"
-    )
-    parser.add_argument(
-        "--every", type=cli.positive_int, default=250, help="evaluations after the change"
-    )
+    cli.add_count(parser, "--pre-every", 2000, "evaluations before the change")
+    cli.add_count(parser, "--after", 3000, "trials after the change")
+    cli.add_count(parser, "--every", 250, "evaluations after the change")
     options.EVAL_TRIALS.add(parser, default=1000)
     parser.add_argument(
         "--pretrained",
@@ -75,7 +69,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         default=RunConfig.abar,
         help="Ā of the evaluations' fine moves: local-fit (this project's) or average (MRS)",
     )
-    parser.add_argument("--video-trials", type=cli.nonnegative_int, default=3, help="0: no video")
+    cli.add_count(parser, "--video-trials", 3, "0: no video", least=0)
     options.OUT.add(parser, default=Path("runs/adapt"))
     args = parser.parse_args(argv)
     start = time.monotonic()
@@ -134,9 +128,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     return rows
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-adapt``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-adapt``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

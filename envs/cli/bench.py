@@ -33,9 +33,8 @@ def main(argv: list[str] | None = None) -> None:
         importlib.import_module(f"envs.cli.bench_{name}").main(args.options)
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-bench``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-bench``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

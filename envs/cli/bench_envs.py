@@ -36,47 +36,28 @@ from importlib.util import find_spec
 
 from envs.cli import common as cli
 from envs.cli import options
-from envs.studies.env_speed import (
-    CLOCKS,
-    format_agents,
-    format_rl_table,
-    format_table,
-    measure,
-    measure_agents,
-    time_rl_loop,
-)
+from envs.studies import env_speed as speed
 
 
 def main(argv: list[str] | None = None) -> dict:
     parser = cli.parser(__doc__)
-    parser.add_argument(
-        "--steps", type=cli.positive_int, default=200, help="timed moves per env row"
-    )
-    parser.add_argument(
-        "--peer-steps", type=cli.positive_int, default=5000, help="timed Reacher-v5 steps"
-    )
-    parser.add_argument(
-        "--sense-repeats", type=cli.positive_int, default=50, help="timed sensing calls"
-    )
+    cli.add_count(parser, "--steps", 200, "timed moves per env row")
+    cli.add_count(parser, "--peer-steps", 5000, "timed Reacher-v5 steps")
+    cli.add_count(parser, "--sense-repeats", 50, "timed sensing calls")
     options.SEED.add(parser)
-    parser.add_argument(
-        "--rl-steps", type=cli.positive_int, default=20_000, help="RL-loop steps per round"
-    )
-    parser.add_argument(
-        "--rl-rounds", type=cli.positive_int, default=5, help="alternating RL-loop rounds"
-    )
+    cli.add_count(parser, "--rl-steps", 20_000, "RL-loop steps per round")
+    cli.add_count(parser, "--rl-rounds", 5, "alternating RL-loop rounds")
     parser.add_argument("--rl-only", action="store_true", help="only the RL loop")
     parser.add_argument(
         "--agents-only", action="store_true", help="only images, render() and SAC + HER"
     )
+    cli.add_count(parser, "--sb3-steps", 600, "env steps per SAC run")
+    cli.add_count(parser, "--sb3-rounds", 2, "alternating SAC / HER rounds")
     parser.add_argument(
-        "--sb3-steps", type=cli.positive_int, default=600, help="env steps per SAC run"
-    )
-    parser.add_argument(
-        "--sb3-rounds", type=cli.positive_int, default=2, help="alternating SAC / HER rounds"
-    )
-    parser.add_argument(
-        "--rl-clock", choices=tuple(CLOCKS), default="wall", help="RL loop: wall or thread time"
+        "--rl-clock",
+        choices=tuple(speed.CLOCKS),
+        default="wall",
+        help="RL loop: wall or thread time",
     )
     options.JSON.add(parser)
     args = parser.parse_args(argv)
@@ -86,14 +67,18 @@ def main(argv: list[str] | None = None) -> dict:
         import torch._dynamo  # noqa: F401  (before anything renders: see compare_rl)
     results: dict = {}
     if not (args.rl_only or args.agents_only):
-        results = measure(args.steps, args.peer_steps, args.sense_repeats, args.seed)
-        print(format_table(results))
+        results = speed.measure(args.steps, args.peer_steps, args.sense_repeats, args.seed)
+        print(speed.format_table(results))
     if not args.rl_only:
-        results["agents"] = measure_agents(args.steps, args.sb3_steps, args.sb3_rounds, args.seed)
-        print(format_agents(results["agents"]))
+        results["agents"] = speed.measure_agents(
+            args.steps, args.sb3_steps, args.sb3_rounds, args.seed
+        )
+        print(speed.format_agents(results["agents"]))
     if not args.agents_only:
-        results["rl_loop"] = time_rl_loop(args.rl_steps, args.rl_rounds, args.seed, args.rl_clock)
-        print(format_rl_table(results["rl_loop"]))
+        results["rl_loop"] = speed.time_rl_loop(
+            args.rl_steps, args.rl_rounds, args.seed, args.rl_clock
+        )
+        print(speed.format_rl_table(results["rl_loop"]))
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(results, indent=2) + "\n")
@@ -101,9 +86,8 @@ def main(argv: list[str] | None = None) -> dict:
     return results
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-bench-envs``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-bench-envs``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

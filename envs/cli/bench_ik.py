@@ -34,13 +34,9 @@ WORKSPACES = {"puma560": puma560.WORKSPACE, "riacs": riacs.WORKSPACE}
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
     p.add_argument("--robots", nargs="+", choices=tuple(WORKSPACES), default=list(WORKSPACES))
-    p.add_argument("--single", type=cli.positive_int, default=500, help="queries timed one by one")
-    p.add_argument(
-        "--batch", type=cli.positive_int, default=20_000, help="queries in one act_batch call"
-    )
-    p.add_argument(
-        "--repeats", type=cli.positive_int, default=3, help="timings repeated, best kept"
-    )
+    cli.add_count(p, "--single", 500, "queries timed one by one")
+    cli.add_count(p, "--batch", 20_000, "queries in one act_batch call")
+    cli.add_count(p, "--repeats", 3, "timings repeated, best kept")
     options.SEED.add(p)
     return p.parse_args(argv)
 
@@ -127,9 +123,8 @@ def main(argv: list[str] | None = None) -> None:
         bench_robot(name, args)
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-bench-ik``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-bench-ik``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

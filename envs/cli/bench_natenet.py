@@ -32,9 +32,7 @@ INPUT_DIM = 5  # θ6 does not change the base-frame Jacobian
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap = cli.parser(__doc__)
     ap.add_argument("--net", type=Path, default=None, help="a saved NATEnet (.npz)")
-    ap.add_argument(
-        "--nodes", type=cli.positive_int, default=60, help="node count of the built net"
-    )
+    cli.add_count(ap, "--nodes", 60, "node count of the built net")
     ap.add_argument("--queries", type=cli.positive_int, default=2000)
     ap.add_argument("--repeats", type=cli.positive_int, default=3)
     options.SEED.add(ap)
@@ -113,9 +111,8 @@ def main(argv: list[str] | None = None) -> dict:
     return result
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-bench-natenet``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-bench-natenet``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -58,6 +58,14 @@ def parser(doc: str | None) -> argparse.ArgumentParser:
     return _Parser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
 
 
+def add_count(
+    parser: argparse.ArgumentParser, flag: str, default: int, help: str, *, least: int = 1
+) -> argparse.Action:
+    """A program's own count option: an integer >= ``least`` (1 or 0) with a default."""
+    kind = {1: positive_int, 0: nonnegative_int}[least]
+    return parser.add_argument(flag, type=kind, default=default, help=help)
+
+
 def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
     def parse(text: str) -> T:
         try:
@@ -178,3 +186,13 @@ def run(main: Callable[[], object]) -> None:
         if error is None:
             raise
         fail(str(error))
+
+
+def entry_point(main: Callable[[], object]) -> Callable[[], None]:
+    """A program's console entry point: its ``main`` (which reads ``sys.argv``) under
+    :func:`run`."""
+
+    def run_main() -> None:
+        run(main)
+
+    return run_main

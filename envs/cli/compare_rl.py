@@ -58,12 +58,8 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     options.CONTROL.add(p, default=RunConfig.control, note=options.run_setting_note("control"))
     p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     p.add_argument("--seeds", nargs="+", type=cli.nonnegative_int, default=[0, 1, 2])
-    p.add_argument(
-        "--budget", type=cli.positive_int, default=10_000, help="env steps per method and seed"
-    )
-    p.add_argument(
-        "--checkpoints", type=cli.positive_int, default=6, help="evaluations, log-spaced"
-    )
+    cli.add_count(p, "--budget", 10_000, "env steps per method and seed")
+    cli.add_count(p, "--checkpoints", 6, "evaluations, log-spaced")
     options.TARGETS.add(p, help="held-out targets per evaluation")
     p.add_argument(
         "--variants",
@@ -81,20 +77,12 @@ def main(argv: list[str] | None = None) -> list[Curve]:
         default=[MAX_EPISODE_STEPS],
         help="moves per episode (1: one absolute move per target)",
     )
-    p.add_argument(
-        "--also-at",
-        nargs="*",
-        type=cli.positive_int,
-        default=[],
-        help="further checkpoints (env steps) beside the log-spaced ones",
-    )
-    p.add_argument(
-        "--table-at",
-        nargs="*",
-        type=cli.positive_int,
-        default=[],
-        help="tabulate at these env steps too (the checkpoint at or below each), beside the end",
-    )
+    for flag, what in (  # lists of env steps
+        ("--also-at", "further checkpoints (env steps) beside the log-spaced ones"),
+        ("--table-at", "tabulate at these env steps too (the checkpoint at or below each), "
+         "beside the end"),
+    ):  # fmt: skip
+        p.add_argument(flag, nargs="*", type=cli.positive_int, default=[], help=what)
     options.OUT.add(p, default=Path("runs/compare_rl"))
     p.add_argument("--report-only", action="store_true", help="table and plots only, no runs")
     args = p.parse_args(argv)
@@ -129,9 +117,8 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     return curves
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-compare-rl``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-compare-rl``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -88,9 +88,8 @@ def main(argv: list[str] | None = None) -> None:
     print("  summary.json                 errors after each move (all trials), both arms")
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-demo``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-demo``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

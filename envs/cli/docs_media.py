@@ -90,9 +90,8 @@ def main(argv: list[str] | None = None) -> list[Path]:
     return written
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-docs-media``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-docs-media``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

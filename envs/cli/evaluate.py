@@ -33,15 +33,14 @@ from envs.cli.controllers import (
     run_folder,
 )
 from envs.grasp import GRASP_ENV_IDS
-from envs.harness import plots
 from envs.harness.checkpoint import read_identity
 from envs.harness.evaluation import Evaluation, Ticking, evaluate
 from envs.harness.run_folder import check_writable, read_metrics, write_json
 from envs.harness.streams import seed_env
 from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
 from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
-from envs.sensing.rendering import render_camera
 from envs.sizes import format_size
+from envs.studies.evaluation_report import format_pose_table, format_table, som_name, write_plots
 from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
 
@@ -188,15 +187,6 @@ def main(argv: list[str] | None = None) -> dict:
     return summary
 
 
-def som_name(som: VisuomotorSOM) -> str:
-    """A map's name in the table: its protocol and, for MRS, its fine-move options."""
-    name = f"som {som.protocol}"
-    if som.protocol == "mrs":
-        name += "+fit" * (som.abar == "local-fit") + "+refine" * som.refine
-        name += "+recover" * som.recover
-    return name
-
-
 def evaluate_with_bar(env, controller, name: str, targets: int, fine_moves: int) -> Evaluation:
     """:func:`evaluate` with a progress bar labelled ``evaluate NAME``, removed when done."""
     with cli.progress_bar(targets, f"evaluate {name}", "target") as bar:
@@ -219,86 +209,8 @@ def som_changes(args: argparse.Namespace) -> dict[str, object]:
     return changes
 
 
-def format_table(rows: list[dict]) -> str:
-    """Mean error after each move, then median and 95th percentile after the last, all over
-    every trial (a trial that stopped counts where it stopped), and the complete trials."""
-    moves = len(rows[0]["mean_mm"])
-    names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
-    head = f"{'controller':<18}" + "".join(f"{n + ' [mm]':>14}" for n in names)
-    head += f"{'last median':>12}{'last p95':>10}{'last [% reach]':>16}{'last [px]':>11}"
-    head += f"{'us/query':>10}{'complete':>10}"
-    lines = [head, "-" * len(head)]
-    for r in rows:
-        line = f"{r['controller']:<18}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
-        line += f"{r['median_mm'][-1]:>12.3f}{r['p95_mm'][-1]:>10.3f}"
-        line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
-        line += f"{r['microseconds_per_query']:>10.1f}{r['complete_fraction'] * 100:>9.1f}%"
-        lines.append(line)
-    for r in rows:
-        if "recovered_trials" in r:
-            lines.append(
-                f"{r['controller']}: {r['recovered_trials']} trials recovered from an unseen "
-                f"marker, {r['mean_recovery_moves']:.4f} extra moves per trial"
-            )
-    lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
-    return "\n".join(lines)
-
-
-def format_pose_table(rows: list[dict]) -> str:
-    """The pose task's table, one line per controller and move: mean position error (mm, % of
-    reach) and orientation error (°), their medians, the share of trials over 1 mm or 1°, the
-    largest errors, over every trial; then each controller's complete trials."""
-    head = (
-        f"{'controller':<32}{'move':>8}{'mean mm':>10}{'% reach':>9}{'mean deg':>10}"
-        f"{'median mm':>11}{'median deg':>11}{'>1mm|1deg':>11}{'max mm':>10}{'max deg':>9}"
-    )
-    lines = [head, "-" * len(head)]
-    for r in rows:
-        for k in range(len(r["mean_mm"])):
-            move = "coarse" if k == 0 else f"fine {k}"
-            lines.append(
-                f"{r['controller'] if k == 0 else '':<32}{move:>8}{r['mean_mm'][k]:>10.3f}"
-                f"{r['mean_percent_reach'][k]:>9.4f}{r['mean_deg'][k]:>10.3f}"
-                f"{r['median_mm'][k]:>11.3f}{r['median_deg'][k]:>11.3f}"
-                f"{100 * r['tail_fraction'][k]:>10.2f}%"
-                f"{r['max_mm'][k]:>10.2f}{r['max_deg'][k]:>9.2f}"
-            )
-        lines.append(f"{'':<32}{'complete trials':>18}: {r['complete_fraction'] * 100:.1f}%")
-    lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
-    return "\n".join(lines)
-
-
-def write_plots(
-    env,
-    som: VisuomotorSOM,
-    result: Evaluation,
-    metrics: list[dict] | None,
-    run: Path | None,
-    out: Path,
-) -> None:
-    """The evaluation's figures into ``out``; the learning curve of the training run ``run``
-    (its ``metrics`` rows: its own held-out evaluations, in the training's settings) into the
-    run folder."""
-    base = env.unwrapped
-    name = type(som).__name__
-    if metrics is not None and run is not None:
-        trained = Trainer.stored_config(run)
-        during = plots.subject(base.robot, trained.sensing, trained.control, name)
-        plots.learning_curve(metrics, base.reach, run / "learning_curve.png", subject=during)
-    subject = plots.subject(base.robot, base.sensing, base.control, name)
-    plots.error_histogram(result, out / "error_histogram.png", subject=subject)
-    image = render_camera(base.model, base.data, "cam_left", base.stereo.height, base.stereo.width)
-    plots.lattice_in_image(
-        som.w, som.lattice, image, out / "lattice_left_camera.png", subject=subject
-    )
-    plots.error_vectors(result, out / "error_vectors.png", subject=subject)
-    plots.error_map(result, out / "error_map_coarse.png", move=0, subject=subject)
-    plots.error_map(result, out / "error_map_final.png", move=result.moves - 1, subject=subject)
-
-
-def run() -> None:
-    """Console entry point ``visuomotor-evaluate``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-evaluate``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -55,9 +55,8 @@ def main(argv: list[str] | None = None) -> Path:
     return args.out
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-grasp-learning``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-grasp-learning``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -132,9 +132,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"\nwrote {out / 'accuracy.json'}")
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-accuracy``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-accuracy``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ from models.analyses import brause_linear_error as B
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
     options.OUT.add(p, default=Path("runs/brause"))
-    p.add_argument("--points", type=cli.positive_int, default=401, help="samples along the path")
+    cli.add_count(p, "--points", 401, "samples along the path")
     p.add_argument(
         "--edge", type=cli.positive_float, default=B.BRAUSE_EDGE, help="workspace edge X (m)"
     )
@@ -62,9 +62,8 @@ def main(argv: list[str] | None = None) -> dict:
     )  # fmt: skip
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-reproduce-brause``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-reproduce-brause``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -38,8 +38,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument(
         "--stepsize", type=cli.positive_float, default=D.STEP, help="joint step, rad (default π/60)"
     )
-    p.add_argument("--train", type=cli.positive_int, default=1000, help="training rows")
-    p.add_argument("--test", type=cli.positive_int, default=1000, help="test rows")
+    cli.add_count(p, "--train", 1000, "training rows")
+    cli.add_count(p, "--test", 1000, "test rows")
     p.add_argument(
         "--no-replace",
         action="store_true",
@@ -119,9 +119,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"wrote {args.out}")
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-riacs-dataset``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-riacs-dataset``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ from envs.studies.sensing_accuracy import measure, table
 
 def main(argv: list[str] | None = None) -> dict:
     p = cli.parser(__doc__)
-    p.add_argument("--poses", type=cli.positive_int, default=400, help="random poses per arm")
+    cli.add_count(p, "--poses", 400, "random poses per arm")
     options.IMAGE_SIZE.add(p, default="320x240")
     options.SEED.add(p)
     options.JSON.add(p, help="also write the rows here")
@@ -48,9 +48,8 @@ def main(argv: list[str] | None = None) -> dict:
     return results
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-sensing-accuracy``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-sensing-accuracy``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

@@ -55,8 +55,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     p.add_argument("--grid", action="append", default=[], help="AXIS=V1,V2,... (repeatable)")
     options.OUT.add(p, default=Path("runs/sweep"))
     p.add_argument("--address", help="Ray cluster address (default: start Ray locally)")
-    p.add_argument("--num-cpus", type=cli.positive_int, default=DEFAULT_CPUS, help="local Ray CPUs")
-    p.add_argument("--retries", type=cli.nonnegative_int, default=DEFAULT_RETRIES, help="per cell")
+    cli.add_count(p, "--num-cpus", DEFAULT_CPUS, "local Ray CPUs")
+    cli.add_count(p, "--retries", DEFAULT_RETRIES, "per cell", least=0)
     options.CHECKPOINT_EVERY.add(p)
     args = p.parse_args(argv)
     grid = {**(load_spec(args.spec) if args.spec else {}), **parse_grid(args.grid)}
@@ -73,9 +73,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     return rows
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-sweep``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-sweep``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

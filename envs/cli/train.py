@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> Path:
     options.CONTROL.add(p, default=d.control, note=options.run_setting_note("control"))
     options.IMAGE_SIZE.add(p, default=sizes.format_size(d.width, d.height))
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
-    p.add_argument("--eval-every", type=cli.positive_int, default=d.eval_every, help="trials")
+    cli.add_count(p, "--eval-every", d.eval_every, "trials")
     options.EVAL_TRIALS.add(p, default=d.eval_trials)
     options.CHECKPOINT_EVERY.add(p)
     options.OUT.add(p, default=Path("runs/train"))
@@ -208,9 +208,8 @@ def train(trainer: Trainer, checkpoint_every: int, stop: SignalStop) -> None:
     bar.close()
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-train``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-train``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":

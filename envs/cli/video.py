@@ -93,9 +93,8 @@ def main(argv: list[str] | None = None) -> Path:
     return args.out
 
 
-def run() -> None:
-    """Console entry point ``visuomotor-video``."""
-    cli.run(main)
+#: Console entry point ``visuomotor-video``.
+run = cli.entry_point(main)
 
 
 if __name__ == "__main__":
