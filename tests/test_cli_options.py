@@ -237,6 +237,17 @@ def test_config_options_refuse_bad_values_in_one_line(argv, message, capsys):
     assert message in error and "\n" not in error
 
 
+def test_config_options_leave_out_and_redefault_fields_by_name():
+    p = cli.parser("toy")
+    names = add_config_options(p, Toy, skip=("label", "limit"), defaults={"lattice": None})
+    assert names == ["lattice", "t_max", "rate", "refine", "rule"]
+    assert "--label" not in option_actions(p)
+    assert p.parse_args([]).lattice is None
+    assert set(config_values(p.parse_args([]), Toy, skip=("label", "limit"))) == set(names)
+    with pytest.raises(ValueError, match=r"\['hidden'\] are no run fields of Toy: lattice, "):
+        add_config_options(cli.parser("toy"), Toy, skip=("hidden",))
+
+
 def test_a_marked_field_of_an_unknown_type_is_a_clear_error():
     @dataclass
     class Bad:

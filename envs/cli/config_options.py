@@ -21,7 +21,7 @@ import argparse
 import math
 import types
 import typing
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import MISSING, Field, fields
 from typing import Any
 
@@ -102,23 +102,46 @@ def _settings(f: Field, annotation: Any) -> dict[str, Any]:
 
 
 def add_config_options(
-    parser: argparse.ArgumentParser | argparse._ArgumentGroup, config_cls: type
+    parser: argparse.ArgumentParser | argparse._ArgumentGroup,
+    config_cls: type,
+    *,
+    skip: Iterable[str] = (),
+    defaults: Mapping[str, Any] | None = None,
 ) -> list[str]:
     """Add a flag to ``parser`` for every field of ``config_cls`` marked ``"run": True``.
 
+    Args:
+        skip: fields to leave out (a program that takes them otherwise).
+        defaults: a program's own defaults by field name, instead of the fields' (None: the
+            program decides after parsing, e.g. by env).
     Returns:
         The names of the fields (the destinations of the flags), in the dataclass's order.
     Raises:
-        TypeError: a marked field whose type has no command-line form, or without a default.
+        TypeError: a marked field whose type has no command-line form, or without a default;
+            ValueError: a name in ``skip`` or ``defaults`` that is no marked field.
     """
+    marked = run_fields(config_cls)
+    own = dict(defaults or {})
+    unknown = (set(skip) | set(own)) - {f.name for f in marked}
+    if unknown:
+        valid = ", ".join(f.name for f in marked)
+        raise ValueError(f"{sorted(unknown)} are no run fields of {config_cls.__name__}: {valid}")
     hints = typing.get_type_hints(config_cls)
     names = []
-    for f in run_fields(config_cls):
-        parser.add_argument(flag(f), **_settings(f, hints[f.name]))
+    for f in marked:
+        if f.name in skip:
+            continue
+        settings = _settings(f, hints[f.name])
+        if f.name in own:
+            settings["default"] = own[f.name]
+        parser.add_argument(flag(f), **settings)
         names.append(f.name)
     return names
 
 
-def config_values(args: argparse.Namespace, config_cls: type) -> dict[str, Any]:
-    """The values of ``config_cls``'s marked fields in the parsed ``args``, by field name."""
-    return {f.name: getattr(args, f.name) for f in run_fields(config_cls)}
+def config_values(
+    args: argparse.Namespace, config_cls: type, *, skip: Iterable[str] = ()
+) -> dict[str, Any]:
+    """The values of ``config_cls``'s marked fields (but ``skip``) in the parsed ``args``, by
+    field name: keyword arguments of ``config_cls``."""
+    return {f.name: getattr(args, f.name) for f in run_fields(config_cls) if f.name not in skip}
