@@ -1,6 +1,6 @@
 """Benchmark the exact baselines against the SOM: time per single query and batch throughput.
 
-    .venv/bin/python scripts/bench_ik.py                 # both robots, 20 000 batch targets
+    .venv/bin/python scripts/bench_ik.py                 # every robot, 20 000 batch targets
     .venv/bin/python scripts/bench.py ik --batch 5000    # the same through the benchmark dispatcher
 
 Targets are drawn from each robot's workspace (seeded) and projected by its stereo rig
@@ -21,13 +21,15 @@ import numpy as np
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
 from envs import StereoRig
 from envs.cli import common as cli
+from envs.robots import ROBOTS
 from envs.sizes import format_lattice
 from learners.baselines.analytic_ik import AnalyticIK
 from learners.baselines.jacobian_ik import JacobianIK
 from learners.som.controller import VisuomotorSOM
-from models import load_model, puma560, riacs
+from models import load_model
 
-WORKSPACES = {"puma560": puma560.WORKSPACE, "riacs": riacs.WORKSPACE}
+#: Every robot of the registry, benchmarked with its fewest controlled joints.
+WORKSPACES = {name: spec.workspace for name, spec in ROBOTS.items()}
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -89,9 +91,10 @@ def bench_robot(name: str, args: argparse.Namespace) -> None:
     rng = np.random.default_rng(args.seed)
     targets = WORKSPACES[name].sample(rng, max(args.single, args.batch))
     U = rig.project(targets)
+    joints = ROBOTS[name].joint_options[0]
     controllers = {
-        "AnalyticIK": AnalyticIK.for_robot(rig.triangulate, name),
-        "JacobianIK": JacobianIK.for_robot(rig.triangulate, name),
+        "AnalyticIK": AnalyticIK.for_robot(rig.triangulate, name, joints),
+        "JacobianIK": JacobianIK.for_robot(rig.triangulate, name, joints),
     }
     arm = controllers["AnalyticIK"].arm
     som = make_som(arm.lower, arm.upper, U)

@@ -24,12 +24,14 @@ from models.analyses import nemecek_accuracy as acc
 from models.arms import arm_kinematics
 
 LEVELS = (0.001, 0.01)
+#: The robots whose model folder gives a parameter chain (``RobotModel.chain``).
+ROBOT_CHOICES = acc.chain_robots()
 MM, DEG = 1e3, 180 / np.pi
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
-    p.add_argument("--robot", choices=("puma560", "riacs"), default="puma560")
+    p.add_argument("--robot", choices=ROBOT_CHOICES, default="puma560")
     p.add_argument("--pose", type=float, nargs="+", help="joint angles in degrees (default: home)")
     p.add_argument(
         "--levels",
@@ -53,7 +55,7 @@ def units(is_angle: np.ndarray) -> tuple[np.ndarray, list[str]]:
 def main(argv: list[str] | None = None) -> None:
     args = parse_args(argv)
     rc = acc.robot_chain(args.robot)
-    joints = 6 if args.robot == "puma560" else 3
+    joints = len(rc.joints)
     theta = arm_kinematics(args.robot, joints).home if args.pose is None else np.radians(args.pose)
     if theta.shape != (joints,):
         raise SystemExit(f"--pose needs {joints} angles (degrees) for {args.robot}")
