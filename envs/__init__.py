@@ -22,13 +22,14 @@ from models.paths import N_STEPS  # noqa: E402
 
 def register_robot(robot: str) -> None:
     """Register the envs of ``ROBOTS[robot]`` with Gymnasium: its reach env
-    (``envs.reach:ReachEnv`` with ``robot``), and its pose env (``envs.grasp:GraspEnv``) if it
-    has one. Importing ``envs`` does it for every robot; call it for an entry added later."""
+    (``envs.reach:ReachEnv`` with ``robot`` and its fewest controlled joints; ``gym.make(...,
+    joints=n)`` for others), and its pose env (``envs.grasp:GraspEnv``) if it has one. Importing
+    ``envs`` does it for every robot; call it for an entry added later."""
     spec = ROBOTS[robot]
     gym.register(
         id=spec.reach_env,
         entry_point="envs.reach:ReachEnv",
-        kwargs={"robot": robot},
+        kwargs={"robot": robot, "joints": spec.joint_options[0]},
         max_episode_steps=MAX_EPISODE_STEPS,
         additional_wrappers=(GOAL_ENV_WRAPPER,),  # compute_reward on what gym.make returns
     )

@@ -116,6 +116,8 @@ class RobotSpec:
             ``envs.grasp.GraspEnv`` is built on its geometry, ``models.puma560.grasp``).
         grasp_env: the Gymnasium id of that pose task's env; grasp_short: its word in a sweep
             grid.
+        reach: the arm's reach (m), for errors in % of it; workspace: where reach targets are
+            drawn (world, m). Both are the model's unless given (a test narrows the workspace).
     """
 
     model: str
@@ -130,11 +132,18 @@ class RobotSpec:
     grasp: MarkerSet | None = None
     grasp_env: str | None = None
     grasp_short: str = "grasp"
+    reach: float = None  # type: ignore[assignment]  # the model's unless given
+    workspace: Workspace = None  # type: ignore[assignment]  # the model's unless given
     #: The robot's model, read once from its folder's package.
     kinematics: RobotModel = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "kinematics", robot_model(self.model))
+        model = robot_model(self.model)
+        object.__setattr__(self, "kinematics", model)
+        if self.reach is None:
+            object.__setattr__(self, "reach", model.reach)
+        if self.workspace is None:
+            object.__setattr__(self, "workspace", model.workspace)
         if set(self.markers) != set(self.sensed):
             raise RobotSpecError(
                 f"robot {self.model!r}: markers are given for {sorted(self.markers)} joints and "
@@ -157,16 +166,6 @@ class RobotSpec:
                 f"robot {self.model!r}: give the pose task's markers (grasp) and its env id "
                 "(grasp_env) together"
             )
-
-    @property
-    def reach(self) -> float:
-        """The arm's reach (m), for errors in % of it."""
-        return self.kinematics.reach
-
-    @property
-    def workspace(self) -> Workspace:
-        """Where reach targets are drawn (world, m)."""
-        return self.kinematics.workspace
 
     @property
     def joint_options(self) -> tuple[int, ...]:
@@ -248,6 +247,16 @@ def check_registry(robots: dict[str, RobotSpec]) -> None:
                         f"robots {owners[kind][name]!r} and {key!r} both use the {kind} {name!r}"
                     )
                 owners[kind][name] = key
+
+
+def reach_env_ids() -> tuple[str, ...]:
+    """Every robot's reach env id, in registry order (``RiacsReach-v0``, ``PumaReach-v0``)."""
+    return tuple(spec.reach_env for spec in ROBOTS.values())
+
+
+def grasp_env_ids() -> tuple[str, ...]:
+    """Every robot's pose env id (``PumaGrasp-v0``)."""
+    return tuple(spec.grasp_env for spec in ROBOTS.values() if spec.grasp_env is not None)
 
 
 def sweep_names() -> dict[str, str]:

@@ -28,13 +28,10 @@ from learners.baselines.jacobian_ik import JacobianIK
 from learners.som.controller import VisuomotorSOM
 from models import load_model
 
-#: Every robot of the registry, benchmarked with its fewest controlled joints.
-WORKSPACES = {name: spec.workspace for name, spec in ROBOTS.items()}
-
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
-    p.add_argument("--robots", nargs="+", choices=tuple(WORKSPACES), default=list(WORKSPACES))
+    p.add_argument("--robots", nargs="+", choices=tuple(ROBOTS), default=list(ROBOTS))
     p.add_argument("--single", type=cli.positive_int, default=500, help="queries timed one by one")
     p.add_argument(
         "--batch", type=cli.positive_int, default=20_000, help="queries in one act_batch call"
@@ -89,9 +86,9 @@ def bench_robot(name: str, args: argparse.Namespace) -> None:
     mujoco.mj_forward(model, data)
     rig = StereoRig(model, data)
     rng = np.random.default_rng(args.seed)
-    targets = WORKSPACES[name].sample(rng, max(args.single, args.batch))
+    targets = ROBOTS[name].workspace.sample(rng, max(args.single, args.batch))
     U = rig.project(targets)
-    joints = ROBOTS[name].joint_options[0]
+    joints = ROBOTS[name].joint_options[0]  # the fewest controlled joints (3 for both arms)
     controllers = {
         "AnalyticIK": AnalyticIK.for_robot(rig.triangulate, name, joints),
         "JacobianIK": JacobianIK.for_robot(rig.triangulate, name, joints),

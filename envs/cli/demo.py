@@ -25,8 +25,12 @@ from envs.robots import ROBOTS
 CAMERAS = ("cam_left", "cam_right", "overview")  # in the order of CompositeView.panels
 SCENE_IMAGE_SIZE = (640, 480)  # width, height of each scene image, pixels
 SCENE_SEED = 3  # the target of the scene images
-#: (reach env, run folder) of every robot in the registry: each is trained, evaluated, filmed.
-RUNS = tuple((spec.reach_env, spec.short) for spec in ROBOTS.values())
+
+
+def runs() -> list[tuple[str, str]]:
+    """(reach env, run folder) of every robot in the registry: each is trained, evaluated and
+    filmed."""
+    return [(spec.reach_env, spec.short) for spec in ROBOTS.values()]
 
 
 def scene_images(out: Path) -> list[Path]:
@@ -67,7 +71,7 @@ def main(argv: list[str] | None = None) -> None:
     start = time.time()
     results = {}
     scene_images(args.out / "scenes")
-    for env_id, short in RUNS:
+    for env_id, short in runs():
         run = args.out / short
         print(f"\n== {env_id}: training {args.trials} trials (exact projection, kinematic) ==")
         # --force: a demo run starts over in its folder (make demo twice gives the same files)
@@ -80,7 +84,7 @@ def main(argv: list[str] | None = None) -> None:
                                      "--out", str(run / f"eval_{sensing}_{control}")]
                                     + (["--no-plots"] if sensing == "project" else []))  # fmt: skip
             results[f"{short}_{sensing}_{control}"] = summary["controllers"][0]
-    for env_id, short in RUNS:
+    for env_id, short in runs():
         # The map above, the exact IK below, on the same targets, filmed in real time.
         video.main(["--env", env_id, "--controller", str(args.out / short / "som.npz"),
                     "--compare", "analytic", "--trials", "5",
@@ -88,7 +92,7 @@ def main(argv: list[str] | None = None) -> None:
     (args.out / "summary.json").write_text(json.dumps(results, indent=1))
     print(f"\nDone in {time.time() - start:.0f} s. Under {args.out}/:")
     print("  scenes/*.png                 both cameras and an overview of each scene")
-    shorts = [short for _, short in RUNS]
+    shorts = [short for _, short in runs()]
     for files, what in (
         ([f"{s}/" for s in shorts], "trained maps (som.npz), metrics.jsonl, learning curve"),
         ([f"{s}/eval_*/" for s in shorts], "evaluation tables and plots (rendered sensing, servo)"),

@@ -24,14 +24,12 @@ from models.analyses import nemecek_accuracy as acc
 from models.arms import arm_kinematics
 
 LEVELS = (0.001, 0.01)
-#: The robots whose model folder gives a parameter chain (``RobotModel.chain``).
-ROBOT_CHOICES = acc.chain_robots()
 MM, DEG = 1e3, 180 / np.pi
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
-    p.add_argument("--robot", choices=ROBOT_CHOICES, default="puma560")
+    p.add_argument("--robot", choices=acc.chain_robots(), default="puma560")
     p.add_argument("--pose", type=float, nargs="+", help="joint angles in degrees (default: home)")
     p.add_argument(
         "--levels",
