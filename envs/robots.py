@@ -259,6 +259,16 @@ def grasp_env_ids() -> tuple[str, ...]:
     return tuple(spec.grasp_env for spec in ROBOTS.values() if spec.grasp_env is not None)
 
 
+def robot_of_env(env_id: str) -> str:
+    """The registry key of the robot whose reach or pose env is ``env_id``; ValueError naming
+    the registered ids else."""
+    for name, spec in ROBOTS.items():
+        if env_id in (spec.reach_env, spec.grasp_env):
+            return name
+    valid = ", ".join((*reach_env_ids(), *grasp_env_ids()))
+    raise ValueError(f"no robot has the env {env_id!r}; registered: {valid}")
+
+
 def sweep_names() -> dict[str, str]:
     """Every robot's words in a sweep grid -> their env ids (``riacs``, ``puma``, ``grasp``)."""
     return {name: env for spec in ROBOTS.values() for name, env in spec.sweep_names.items()}

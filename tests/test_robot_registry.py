@@ -28,6 +28,7 @@ from envs.robots import (
     check_registry,
     grasp_env_ids,
     reach_env_ids,
+    robot_of_env,
     sweep_names,
 )
 from envs.studies.sweep_grid import parse_value, robot_word
@@ -235,6 +236,7 @@ def test_the_throwaway_robot_is_a_model_with_kinematics(planar):
         arm_kinematics(NAME, 3)
     check_registry(ROBOTS)
     assert reach_env_ids()[-1] == ENV_ID and ENV_ID not in grasp_env_ids()
+    assert robot_of_env(ENV_ID) == NAME
 
 
 def test_the_env_is_registered_and_moves_the_arm_its_kinematics_say(planar):
@@ -311,8 +313,12 @@ def test_every_model_folder_has_one_registry_entry():
     assert set(models.available_models()) == set(ROBOTS)
     for name, spec in ROBOTS.items():
         assert gym.spec(spec.reach_env).kwargs["robot"] == name
+        assert robot_of_env(spec.reach_env) == name
         if spec.grasp_env is not None:
             assert gym.spec(spec.grasp_env).entry_point == "envs.grasp:GraspEnv"
+            assert robot_of_env(spec.grasp_env) == name
+    with pytest.raises(ValueError, match="registered: RiacsReach-v0, PumaReach-v0, PumaGrasp-v0"):
+        robot_of_env("PumaTrack-v0")
 
 
 @pytest.mark.parametrize("name", sorted(ROBOTS))
