@@ -12,7 +12,7 @@ from envs import arguments
 from envs.pose_reward import pose_reward_terms
 from envs.reach import PIXELS_HEIGHT, PIXELS_WIDTH, SUCCESS_THRESHOLD, ReachEnv
 from envs.reward import seen_flags
-from envs.robots import ROBOTS, MarkerSet
+from envs.robots import ROBOTS, MarkerSet, grasp_env_ids
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT
 from envs.step_info import StepInfo
@@ -26,8 +26,8 @@ from models.puma560.grasp import (
 )
 from models.workspace import BoxWorkspace
 
-#: The Gymnasium ids of the pose envs (registered in envs/__init__.py).
-GRASP_ENV_IDS = ("PumaGrasp-v0",)
+#: The Gymnasium ids of the pose envs: every robot's of the registry (envs/robots.py).
+GRASP_ENV_IDS = grasp_env_ids()
 #: The geom groups that may hide the object from a camera: the robot and its markers.
 ROBOT_GROUPS = np.array([int(g in (GROUP_ROBOT, GROUP_MARKER)) for g in range(6)], dtype=np.uint8)
 #: px: the least gap between two of the hand's marker images at the grasp (an object whose

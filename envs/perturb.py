@@ -20,19 +20,12 @@ import mujoco
 import numpy as np
 
 from envs import arguments
+from envs.robots import ROBOTS
 from envs.sensing.stereo import CameraPair, PinholeCamera
 from models.rotations import rotvec_to_matrix
 from models.workspace import Workspace
 
 CAMERAS = ("cam_left", "cam_right")
-#: Outward direction of a tool extension in the sensed site's body frame, per (robot, site).
-TOOL_AXES = {
-    ("riacs", "tcp"): (0.0, -1.0, 0.0),  # along link 2, from the elbow (body origin) to the tcp
-    # Along the forearm (link 4's z = frame 4's -y), which is link 5's -y while joint 5 is at
-    # its home angle 0 (the PUMA with 3 controlled joints holds joints 4-6 at home).
-    ("puma560", "wrist_center"): (0.0, -1.0, 0.0),
-    ("puma560", "tcp"): (0.0, 0.0, 1.0),  # along the tool axis z6
-}
 MIN_ZOOM, MAX_ZOOM = 0.5, 2.0  # focal length factors accepted
 MAX_OFFSET = 0.5  # m: largest camera shift, base shift or tool extension accepted
 MAX_TURN = np.pi / 2  # rad: largest camera turn accepted
@@ -231,8 +224,9 @@ class SceneEditor:
 
     Args:
         model, data: the env's MuJoCo model and data (after ``mj_forward`` at the nominal state).
-        robot: robot name; site, markers: the sensed site and the marker geoms that move
-            with it (the green marker; the hand's three).
+        robot: a key of :data:`envs.robots.ROBOTS`; site, markers: the sensed site and the
+            marker geoms that move with it (the green marker; the hand's three) along the
+            site's tool axis (:attr:`~envs.robots.RobotSpec.tool_axes`).
         nominal: the nominal cameras (pixels of the env's image size).
         width, height: the env's sensing image size, px.
     """
@@ -262,7 +256,7 @@ class SceneEditor:
         model.site_sameframe[self._site] = model.geom_sameframe[self._marker] = 0
         self._site_pos = model.site_pos[self._site].copy()
         self._marker_pos = model.geom_pos[self._marker].copy()
-        self._tool_axis = np.array(TOOL_AXES[(robot, site)])
+        self._tool_axis = np.array(ROBOTS[robot].tool_axes[site])
         self._root = int(model.body_rootid[model.site_bodyid[self._site]])
         self._root_pos = model.body_pos[self._root].copy()
 

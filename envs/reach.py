@@ -14,7 +14,7 @@ from envs import arguments
 from envs.composite import CompositeView
 from envs.perturb import Perturbation, PerturbationError, SceneEditor, random_sizes
 from envs.reward import GoalPoints, reward_terms, seen_flags
-from envs.robots import ROBOTS, MarkerSet
+from envs.robots import ROBOTS, MarkerSet, reach_env_ids
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
 from envs.sensing.camera_images import CameraImages
 from envs.sensing.sensors import SENSING_MODES, make_sensor
@@ -24,8 +24,8 @@ from envs.step_info import StepInfo
 from envs.viewer import HumanViewer
 
 CONTROL_MODES = ("servo", "kinematic")
-#: The Gymnasium ids of the reach envs (registered in envs/__init__.py).
-REACH_ENV_IDS = ("RiacsReach-v0", "PumaReach-v0")
+#: The Gymnasium ids of the reach envs: every robot's of the registry (envs/robots.py).
+REACH_ENV_IDS = reach_env_ids()
 #: Observation modes: the keys each puts into the observation dict.
 OBS_MODES = {
     "state": ("observation", "achieved_goal", "desired_goal"),

@@ -1,8 +1,16 @@
-"""What the reach environment needs to know about each robot."""
+"""The robot registry: :data:`ROBOTS`, one :class:`RobotSpec` per robot, which the envs, their
+registration, the perturbations, the figures, the sweeps, the benchmarks and the demo read.
+
+The kinematics (reach, workspace, the exact controllers' arms, the accuracy chain) are the robot's
+own package's (``models/<robot>/``, its :class:`~models.robot_model.RobotModel`); a spec adds
+what the envs need: the scene's sites and markers, the env ids, names and settings. Adding a
+robot: ``docs/layout.md``, "Adding a robot".
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 from envs.sensing.marker_detection import (
     GRASP_HAND,
@@ -11,8 +19,8 @@ from envs.sensing.marker_detection import (
     RED_TARGET,
     MarkerColour,
 )
-from models import puma560, riacs
 from models.puma560.grasp import HAND_COLOURS, MARKER_COLOURS
+from models.robot_model import RobotModel, robot_model
 from models.workspace import Workspace
 
 #: Width : height of the sensing images of both scenes (320 x 240 by default).
@@ -79,33 +87,97 @@ PUMA_GRASP = MarkerSet(
 )
 
 
+class RobotSpecError(ValueError):
+    """A robot entry that does not fit its model folder or the other entries."""
+
+
 @dataclass(frozen=True)
 class RobotSpec:
-    """One robot's reach task.
+    """One robot: its model folder and what its envs, figures, sweeps and the demo need.
 
     Attributes:
-        model: folder name under ``models/``.
-        reach: length used to express errors in % (m).
-        workspace: where targets are drawn.
+        model: folder name under ``models/`` (= its key in :data:`ROBOTS`); its package's
+            ``MODEL`` (the spec's ``kinematics``) gives the reach, the workspace and the
+            arms' kinematics.
+        title: the arm's name in figure titles ("PUMA 560").
+        short: the robot's word in a sweep grid (``robot=puma``) and the demo's run folders.
+        reach_env: the Gymnasium id of its reach env (``envs.reach.ReachEnv``), registered by
+            :func:`envs.register_robot`.
         sensed: site whose position the effector marker shows, by number of controlled joints.
         markers: green marker geom at each of those sites.
+        tool_axes: per sensed site, the outward direction (unit, in the site's body frame) along
+            which a perturbation's ``tool`` moves it (a longer tool, a re-attached marker).
         image_aspect: (width, height) ratio of the sensing images that the scene's cameras are
             made for (RIACS: their ``sensorsize``; PUMA: the ``fovy`` margin around the
             workspace is set for it); sensing images of another shape are refused.
-        grasp: the pose task's markers, for a robot that has one.
+        magnify: the arm is small in its cameras' images: films and the demo's scene images
+            magnify the marker's neighbourhood.
+        grasp: the pose task's markers, for a robot that has one (the PUMA: the pose env
+            ``envs.grasp.GraspEnv`` is built on its geometry, ``models.puma560.grasp``).
+        grasp_env: the Gymnasium id of that pose task's env; grasp_short: its word in a sweep
+            grid.
+        reach: the arm's reach (m), for errors in % of it; workspace: where reach targets are
+            drawn (world, m). Both are the model's unless given (a test narrows the workspace).
     """
 
     model: str
-    reach: float
-    workspace: Workspace
+    title: str
+    short: str
+    reach_env: str
     sensed: dict[int, str]
     markers: dict[int, str]
+    tool_axes: dict[str, tuple[float, float, float]]
     image_aspect: tuple[int, int] = CAMERA_ASPECT
+    magnify: bool = False
     grasp: MarkerSet | None = None
+    grasp_env: str | None = None
+    grasp_short: str = "grasp"
+    reach: float = None  # type: ignore[assignment]  # the model's unless given
+    workspace: Workspace = None  # type: ignore[assignment]  # the model's unless given
+    #: The robot's model, read once from its folder's package.
+    kinematics: RobotModel = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        model = robot_model(self.model)
+        object.__setattr__(self, "kinematics", model)
+        if self.reach is None:
+            object.__setattr__(self, "reach", model.reach)
+        if self.workspace is None:
+            object.__setattr__(self, "workspace", model.workspace)
+        if set(self.markers) != set(self.sensed):
+            raise RobotSpecError(
+                f"robot {self.model!r}: markers are given for {sorted(self.markers)} joints and "
+                f"sensed sites for {sorted(self.sensed)}; give both for the same joint counts"
+            )
+        missing = sorted(set(self.sensed.values()) - set(self.tool_axes))
+        if missing:
+            raise RobotSpecError(
+                f"robot {self.model!r}: no tool axis for sensed site(s) {missing}; add them to "
+                "tool_axes (the direction a perturbation's tool moves the site)"
+            )
+        for site, axis in self.tool_axes.items():
+            if len(axis) != 3 or not math.isclose(math.hypot(*axis), 1.0, abs_tol=1e-12):
+                raise RobotSpecError(
+                    f"robot {self.model!r}: tool axis of {site!r} must be a unit vector "
+                    f"(x, y, z), got {axis!r}"
+                )
+        if (self.grasp is None) != (self.grasp_env is None):
+            raise RobotSpecError(
+                f"robot {self.model!r}: give the pose task's markers (grasp) and its env id "
+                "(grasp_env) together"
+            )
 
     @property
     def joint_options(self) -> tuple[int, ...]:
         return tuple(sorted(self.sensed))
+
+    @property
+    def sweep_names(self) -> dict[str, str]:
+        """This robot's words in a sweep grid -> their env ids."""
+        names = {self.short: self.reach_env}
+        if self.grasp_env is not None:
+            names[self.grasp_short] = self.grasp_env
+        return names
 
     def reach_markers(self, joints: int) -> MarkerSet:
         """The reach task's markers with ``joints`` controlled joints: the red target sphere and
@@ -122,19 +194,84 @@ class RobotSpec:
 
 
 ROBOTS: dict[str, RobotSpec] = {
-    "puma560": RobotSpec(
-        model="puma560",
-        reach=puma560.ARM_REACH,
-        workspace=puma560.WORKSPACE,
-        sensed={3: "wrist_center", 6: "tcp"},
-        markers={3: "marker_wrist", 6: "marker_tcp"},
-        grasp=PUMA_GRASP,
-    ),
     "riacs": RobotSpec(
         model="riacs",
-        reach=riacs.ARM_REACH,
-        workspace=riacs.WORKSPACE,
+        title="RIACS 3-DOF arm",
+        short="riacs",
+        reach_env="RiacsReach-v0",
         sensed={3: "tcp"},
         markers={3: "marker_tcp"},
+        # Along link 2, from the elbow (body origin) to the tcp.
+        tool_axes={"tcp": (0.0, -1.0, 0.0)},
+        magnify=True,
+    ),
+    "puma560": RobotSpec(
+        model="puma560",
+        title="PUMA 560",
+        short="puma",
+        reach_env="PumaReach-v0",
+        sensed={3: "wrist_center", 6: "tcp"},
+        markers={3: "marker_wrist", 6: "marker_tcp"},
+        tool_axes={
+            # Along the forearm (link 4's z = frame 4's -y), which is link 5's -y while joint 5
+            # is at its home angle 0 (the PUMA with 3 controlled joints holds joints 4-6 at home).
+            "wrist_center": (0.0, -1.0, 0.0),
+            "tcp": (0.0, 0.0, 1.0),  # along the tool axis z6
+        },
+        grasp=PUMA_GRASP,
+        grasp_env="PumaGrasp-v0",
     ),
 }
+
+
+def check_registry(robots: dict[str, RobotSpec]) -> None:
+    """RobotSpecError unless every entry sits under its model's name, has a model folder whose
+    kinematics cover its joint counts, and no two entries share an env id or a sweep word."""
+    owners: dict[str, dict[str, str]] = {"env id": {}, "sweep word": {}}
+    for key, spec in robots.items():
+        if key != spec.model:
+            raise RobotSpecError(f"ROBOTS[{key!r}] is the spec of {spec.model!r}; key it so")
+        missing = sorted(set(spec.joint_options) - set(spec.kinematics.joint_options))
+        if missing:
+            raise RobotSpecError(
+                f"robot {key!r} senses with {missing} joints, but models/{key}/ has no "
+                f"kinematics for them (its MODEL.arms: {list(spec.kinematics.joint_options)})"
+            )
+        for kind, names in (
+            ("env id", spec.sweep_names.values()),
+            ("sweep word", spec.sweep_names),
+        ):
+            for name in names:
+                if name in owners[kind]:
+                    raise RobotSpecError(
+                        f"robots {owners[kind][name]!r} and {key!r} both use the {kind} {name!r}"
+                    )
+                owners[kind][name] = key
+
+
+def reach_env_ids() -> tuple[str, ...]:
+    """Every robot's reach env id, in registry order (``RiacsReach-v0``, ``PumaReach-v0``)."""
+    return tuple(spec.reach_env for spec in ROBOTS.values())
+
+
+def grasp_env_ids() -> tuple[str, ...]:
+    """Every robot's pose env id (``PumaGrasp-v0``)."""
+    return tuple(spec.grasp_env for spec in ROBOTS.values() if spec.grasp_env is not None)
+
+
+def robot_of_env(env_id: str) -> str:
+    """The registry key of the robot whose reach or pose env is ``env_id``; ValueError naming
+    the registered ids else."""
+    for name, spec in ROBOTS.items():
+        if env_id in (spec.reach_env, spec.grasp_env):
+            return name
+    valid = ", ".join((*reach_env_ids(), *grasp_env_ids()))
+    raise ValueError(f"no robot has the env {env_id!r}; registered: {valid}")
+
+
+def sweep_names() -> dict[str, str]:
+    """Every robot's words in a sweep grid -> their env ids (``riacs``, ``puma``, ``grasp``)."""
+    return {name: env for spec in ROBOTS.values() for name, env in spec.sweep_names.items()}
+
+
+check_registry(ROBOTS)

@@ -1,6 +1,10 @@
 """Robot descriptions: MJCF files (``<robot>/<robot>.xml``, ``<robot>/scene.xml``) and the
 analytic kinematics of each robot in pure numpy.
 
+A robot is a subpackage of ``models`` with a ``scene.xml``: normally a folder of ``models/``,
+found in any folder of the package's search path ``models.__path__`` (a test adds a throwaway
+robot there). Its ``__init__.py`` defines ``MODEL`` (:mod:`models.robot_model`).
+
 >>> from models import scene_path, available_models
 >>> available_models()
 ('puma560', 'riacs')
@@ -21,19 +25,29 @@ class UnknownModelError(ValueError):
     """Raised for a robot name that has no model folder."""
 
 
+def _folders() -> dict[str, Path]:
+    """Robot name -> its folder: every folder with a ``scene.xml`` in the package's search path
+    (the first one found for a name, as ``import models.<name>`` finds it)."""
+    found: dict[str, Path] = {}
+    for root in __path__:
+        for scene in sorted(Path(root).glob("*/scene.xml")):
+            found.setdefault(scene.parent.name, scene.parent)
+    return found
+
+
 def available_models() -> tuple[str, ...]:
     """Names of the robots that have a ``scene.xml``, sorted."""
-    return tuple(sorted(p.parent.name for p in MODELS_DIR.glob("*/scene.xml")))
+    return tuple(sorted(_folders()))
 
 
 def model_dir(name: str) -> Path:
     """Folder of robot ``name``; raises :class:`UnknownModelError` listing the valid names."""
-    folder = MODELS_DIR / name
-    if name not in available_models():
+    folders = _folders()
+    if name not in folders:
         raise UnknownModelError(
-            f"no robot model named {name!r}; available models: {', '.join(available_models())}"
+            f"no robot model named {name!r}; available models: {', '.join(sorted(folders))}"
         )
-    return folder
+    return folders[name]
 
 
 def scene_path(name: str) -> Path:

@@ -26,6 +26,7 @@ negative axes (RIACS θ1 about -z) keep their physical angle as k.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -235,3 +236,27 @@ def riacs_parameters(theta: np.ndarray, link1: float, link2: float) -> np.ndarra
     ones = np.ones(theta.shape[:-1])
     t1, t2, t3 = theta[..., 0], theta[..., 1], theta[..., 2]
     return np.stack([t1, t2, link1 * ones, t3, link2 * ones], axis=-1)
+
+
+@dataclass(frozen=True)
+class RobotChain:
+    """A robot's chain and where each segment lives in its MJCF (for the accuracy analysis,
+    :mod:`models.analyses.nemecek_accuracy`).
+
+    Attributes:
+        robot: model name; chain: the chain T_0n from site ``base`` to site ``tcp``.
+        joints: positions in k of the joint angles, in qpos order.
+        segments: for each joint, the MJCF element ("body" or "site", name) whose local transform
+            is the product of the chain's fixed factors after that joint.
+        parameters: joint angles (..., J) rad -> the nominal k (..., N).
+    """
+
+    robot: str
+    chain: Chain
+    joints: tuple[int, ...]
+    segments: tuple[tuple[str, str], ...]
+    parameters: Callable[[np.ndarray], np.ndarray]
+
+    def is_angle(self) -> np.ndarray:
+        """(N,) bool: parameter is an angle (rad) rather than a length (m)."""
+        return np.array([e.is_rotation for e in self.chain.elements])

@@ -73,7 +73,7 @@ def test_puma_wrist_ik_reaches_every_target_in_each_configuration(configuration)
     rng = np.random.default_rng(1)
     # Points over the whole reach, not only the target box: each configuration reaches part.
     points = puma560.BASE_POS + rng.uniform([-0.8, -0.8, -0.8], [0.8, 0.8, 0.8], (4000, 3))
-    arm = arms.puma560_wrist(configuration)
+    arm = puma560.arm.wrist(configuration)
     theta, reachable = arm.inverse(points, None)
     assert reachable.mean() > 0.2  # the check below is not vacuous
     assert np.all(np.isfinite(theta))
@@ -85,7 +85,7 @@ def test_puma_wrist_ik_reaches_every_target_in_each_configuration(configuration)
 
 def test_puma_right_above_reaches_the_whole_target_box():
     points = puma560.WORKSPACE.sample(np.random.default_rng(2), 3000)
-    _, reachable = arms.puma560_wrist("right-above").inverse(points, None)
+    _, reachable = puma560.arm.wrist("right-above").inverse(points, None)
     assert reachable.all()
 
 
@@ -123,7 +123,7 @@ def test_wrist_flip_is_theta4_plus_pi_minus_theta5_theta6_plus_pi():
 
 def test_riacs_inverse_is_exact_to_1e12():
     points = riacs.WORKSPACE.sample(np.random.default_rng(5), 5000)
-    theta, reachable = arms.riacs_arm().inverse(points, None)
+    theta, reachable = riacs.arm.tool().inverse(points, None)
     assert reachable.all()
     assert np.max(np.abs(riacs_fk(theta) - points)) < 1e-12
 
@@ -208,10 +208,12 @@ def test_wrap_into_range_uses_other_turns_and_reference():
 
 def test_bad_arguments_raise_with_the_valid_options():
     with pytest.raises(ValueError, match="right-above"):
-        arms.puma560_wrist("sideways")
-    with pytest.raises(ValueError, match="puma560 with 3 or 6"):
+        puma560.arm.wrist("sideways")
+    with pytest.raises(ValueError, match="valid for riacs: 3 joints"):
         arms.arm_kinematics("riacs", 6)
-    controller = AnalyticIK(lambda px: px[:, :3], arms.riacs_arm())
+    with pytest.raises(ValueError, match="available models: puma560, riacs"):
+        arms.arm_kinematics("kuka", 3)
+    controller = AnalyticIK(lambda px: px[:, :3], riacs.arm.tool())
     with pytest.raises(ValueError, match="shape"):
         controller.act(np.zeros(3))
     with pytest.raises(ValueError, match="NaN"):

@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from learners.baselines.jacobian_ik import JacobianIK
-from models import arms, puma560, riacs
+from models import puma560, riacs
+from models.robot_model import robot_model
 
-WORKSPACES = {"puma560": puma560.WORKSPACE, "riacs": riacs.WORKSPACE}
+WORKSPACES = {name: robot_model(name).workspace for name in ("puma560", "riacs")}
 
 
 def identity_triangulate(pixels: np.ndarray) -> np.ndarray:
@@ -91,7 +92,7 @@ def test_unreachable_targets_are_reported_and_never_nan(robot):
 
 @pytest.mark.parametrize(
     "arm",
-    [arms.puma560_wrist(), arms.puma560_tool(), arms.riacs_arm()],
+    [puma560.arm.wrist(), puma560.arm.tool(), riacs.arm.tool()],
     ids=["wrist", "tool", "riacs"],
 )
 def test_jacobian_equals_central_difference(arm):

@@ -16,6 +16,7 @@ import pytest
 
 import models
 from models import puma560, riacs
+from models.robot_model import robot_model
 
 DEG = math.pi / 180.0  # rad per degree
 MM = 1e-3  # m per mm
@@ -194,12 +195,13 @@ def test_every_model_folder_has_robot_scene_and_readme():
     folders = sorted(p.parent for p in models.MODELS_DIR.glob("*/scene.xml"))
     assert {f.name for f in folders} >= {"puma560", "riacs"}
     for folder in folders:
-        for name in (f"{folder.name}.xml", "README.md"):
+        for name in (f"{folder.name}.xml", "README.md", "__init__.py"):
             assert (folder / name).is_file(), f"{folder} lacks {name}"
+        assert robot_model(folder.name).name == folder.name  # its __init__.py defines MODEL
     assert models.available_models() == tuple(f.name for f in folders)
 
 
-@pytest.mark.parametrize("name", ["puma560", "riacs"])
+@pytest.mark.parametrize("name", models.available_models())
 def test_robot_file_is_the_robot_alone(name):
     robot = models.load_model(name, scene=False)
     scene = models.load_model(name)
@@ -473,7 +475,7 @@ def test_riacs_ranges_and_home_are_build3dpts(riacs_model):
 # --------------------------------------------------------------------------- servo
 
 
-@pytest.mark.parametrize("name", ["puma560", "riacs"])
+@pytest.mark.parametrize("name", models.available_models())
 def test_servo_reaches_random_poses_within_one_second(name):
     model = models.load_model(name)
     data = mujoco.MjData(model)
@@ -528,9 +530,9 @@ def test_puma_workspace_is_reachable_right_above_within_joint_ranges():
     np.testing.assert_allclose(puma_frames(full)[:, 4, :3, 3], p, atol=FK_TOL, rtol=0)
 
 
-@pytest.mark.parametrize("name", ["puma560", "riacs"])
+@pytest.mark.parametrize("name", models.available_models())
 def test_workspace_sampling_is_seeded(name):
-    workspace = getattr(models, name).WORKSPACE
+    workspace = robot_model(name).workspace
     a = workspace.sample(np.random.default_rng(7), 500)
     b = workspace.sample(np.random.default_rng(7), 500)
     c = workspace.sample(np.random.default_rng(8), 500)

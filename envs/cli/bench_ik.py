@@ -1,6 +1,6 @@
 """Benchmark the exact baselines against the SOM: time per single query and batch throughput.
 
-    .venv/bin/python scripts/bench_ik.py                 # both robots, 20 000 batch targets
+    .venv/bin/python scripts/bench_ik.py                 # every robot, 20 000 batch targets
     .venv/bin/python scripts/bench.py ik --batch 5000    # the same through the benchmark dispatcher
 
 Targets are drawn from each robot's workspace (seeded) and projected by its stereo rig
@@ -22,18 +22,17 @@ import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported)
 from envs import StereoRig
 from envs.cli import common as cli
 from envs.cli import options
+from envs.robots import ROBOTS
 from envs.sizes import format_lattice
 from learners.baselines.analytic_ik import AnalyticIK
 from learners.baselines.jacobian_ik import JacobianIK
 from learners.som.controller import VisuomotorSOM
-from models import load_model, puma560, riacs
-
-WORKSPACES = {"puma560": puma560.WORKSPACE, "riacs": riacs.WORKSPACE}
+from models import load_model
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
-    p.add_argument("--robots", nargs="+", choices=tuple(WORKSPACES), default=list(WORKSPACES))
+    p.add_argument("--robots", nargs="+", choices=tuple(ROBOTS), default=list(ROBOTS))
     cli.add_count(p, "--single", 500, "queries timed one by one")
     cli.add_count(p, "--batch", 20_000, "queries in one act_batch call")
     cli.add_count(p, "--repeats", 3, "timings repeated, best kept")
@@ -84,11 +83,12 @@ def bench_robot(name: str, args: argparse.Namespace) -> None:
     mujoco.mj_forward(model, data)
     rig = StereoRig(model, data)
     rng = np.random.default_rng(args.seed)
-    targets = WORKSPACES[name].sample(rng, max(args.single, args.batch))
+    targets = ROBOTS[name].workspace.sample(rng, max(args.single, args.batch))
     U = rig.project(targets)
+    joints = ROBOTS[name].joint_options[0]  # the fewest controlled joints (3 for both arms)
     controllers = {
-        "AnalyticIK": AnalyticIK.for_robot(rig.triangulate, name),
-        "JacobianIK": JacobianIK.for_robot(rig.triangulate, name),
+        "AnalyticIK": AnalyticIK.for_robot(rig.triangulate, name, joints),
+        "JacobianIK": JacobianIK.for_robot(rig.triangulate, name, joints),
     }
     arm = controllers["AnalyticIK"].arm
     som = make_som(arm.lower, arm.upper, U)

@@ -1,6 +1,7 @@
-"""The main job, end to end and headless: train the visuomotor SOM on both arms, evaluate it
-with exact projection and kinematic moves and with rendered (foveated) cameras and servo moves,
-and write plots, videos (the map beside the exact IK) and camera images.
+"""The main job, end to end and headless: train the visuomotor SOM on every arm of the robot
+registry (``envs.robots.ROBOTS``), evaluate it with exact projection and kinematic moves and with
+rendered (foveated) cameras and servo moves, and write plots, videos (the map beside the exact
+IK) and camera images.
 
     .venv/bin/python scripts/demo.py --out runs/demo          (what `make demo` runs; ~3 minutes)
 """
@@ -19,19 +20,26 @@ from envs.cli import common as cli
 from envs.cli import evaluate, options, train, video
 from envs.composite import CompositeView, draw_inset
 from envs.reach import ReachEnv
-from models import available_models
+from envs.robots import ROBOTS
 
 CAMERAS = ("cam_left", "cam_right", "overview")  # in the order of CompositeView.panels
 SCENE_IMAGE_SIZE = (640, 480)  # width, height of each scene image, pixels
 SCENE_SEED = 3  # the target of the scene images
 
 
+def runs() -> list[tuple[str, str]]:
+    """(reach env, run folder) of every robot in the registry: each is trained, evaluated and
+    filmed."""
+    return [(spec.reach_env, spec.short) for spec in ROBOTS.values()]
+
+
 def scene_images(out: Path) -> list[Path]:
-    """Both sensing cameras and the overview of every scene, at the home pose with a target drawn
-    by ``reset(seed=SCENE_SEED)``, as PNG: what the cameras see (target and green marker), with
-    an inset magnifying the marker where the arm is small in the camera views (RIACS)."""
+    """Both sensing cameras and the overview of every robot's scene, at the home pose with a
+    target drawn by ``reset(seed=SCENE_SEED)``, as PNG: what the cameras see (target and green
+    marker), with an inset magnifying the marker where the arm is small in the camera views
+    (:attr:`envs.robots.RobotSpec.magnify`: RIACS)."""
     paths = []
-    for name in cli.progress(available_models(), "scene images", "scene"):
+    for name in cli.progress(tuple(ROBOTS), "scene images", "scene"):
         env = ReachEnv(robot=name, sensing="project", control="kinematic")
         _, info = env.reset(seed=SCENE_SEED)  # home pose, a target in the workspace
         width, height = SCENE_IMAGE_SIZE
@@ -41,7 +49,7 @@ def scene_images(out: Path) -> list[Path]:
         nothing = np.full(4, np.nan)  # no overlays: the picture shows what the camera sees
         panels = view.panels(env.data, nothing, nothing)
         for k, (camera, image) in enumerate(zip(CAMERAS, panels, strict=True)):
-            if name == "riacs" and k < 2:
+            if ROBOTS[name].magnify and k < 2:
                 draw_inset(image, view.to_panel(marker[2 * k : 2 * k + 2]), height / 480)
             path = out / f"{name}_{camera}.png"
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -61,7 +69,7 @@ def main(argv: list[str] | None = None) -> None:
     start = time.time()
     results = {}
     scene_images(args.out / "scenes")
-    for env_id, short in (("PumaReach-v0", "puma"), ("RiacsReach-v0", "riacs")):
+    for env_id, short in runs():
         run = args.out / short
         print(f"\n== {env_id}: training {args.trials} trials (exact projection, kinematic) ==")
         # --force: a demo run starts over in its folder (make demo twice gives the same files)
@@ -74,7 +82,7 @@ def main(argv: list[str] | None = None) -> None:
                                      "--out", str(run / f"eval_{sensing}_{control}")]
                                     + (["--no-plots"] if sensing == "project" else []))  # fmt: skip
             results[f"{short}_{sensing}_{control}"] = summary["controllers"][0]
-    for env_id, short in (("PumaReach-v0", "puma"), ("RiacsReach-v0", "riacs")):
+    for env_id, short in runs():
         # The map above, the exact IK below, on the same targets, filmed in real time.
         video.main(["--env", env_id, "--controller", str(args.out / short / "som.npz"),
                     "--compare", "analytic", "--trials", "5",
@@ -82,10 +90,14 @@ def main(argv: list[str] | None = None) -> None:
     (args.out / "summary.json").write_text(json.dumps(results, indent=1))
     print(f"\nDone in {time.time() - start:.0f} s. Under {args.out}/:")
     print("  scenes/*.png                 both cameras and an overview of each scene")
-    print("  puma/, riacs/                trained maps (som.npz), metrics.jsonl, learning curve")
-    print("  puma/eval_*/, riacs/eval_*/  evaluation tables and plots (rendered sensing, servo)")
-    print("  puma_som.mp4, riacs_som.mp4  the map (top) and exact IK (below) moving, real time")
-    print("  summary.json                 errors after each move (all trials), both arms")
+    shorts = [short for _, short in runs()]
+    for files, what in (
+        ([f"{s}/" for s in shorts], "trained maps (som.npz), metrics.jsonl, learning curve"),
+        ([f"{s}/eval_*/" for s in shorts], "evaluation tables and plots (rendered sensing, servo)"),
+        ([f"{s}_som.mp4" for s in shorts], "the map (top) and exact IK (below) moving, real time"),
+    ):
+        print(f"  {', '.join(files):<28} {what}")
+    print("  summary.json                 errors after each move (all trials), every arm")
 
 
 #: Console entry point ``visuomotor-demo``.

@@ -21,7 +21,6 @@ import numpy as np
 
 from envs.cli import common as cli
 from envs.cli import options
-from envs.robots import ROBOTS
 from models.analyses import nemecek_accuracy as acc
 from models.arms import arm_kinematics
 
@@ -31,7 +30,7 @@ MM, DEG = 1e3, 180 / np.pi
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
-    p.add_argument("--robot", choices=tuple(ROBOTS), default="puma560")
+    p.add_argument("--robot", choices=acc.chain_robots(), default="puma560")
     p.add_argument("--pose", type=float, nargs="+", help="joint angles in degrees (default: home)")
     p.add_argument(
         "--levels",
@@ -53,7 +52,7 @@ def units(is_angle: np.ndarray) -> tuple[np.ndarray, list[str]]:
 def main(argv: list[str] | None = None) -> None:
     args = parse_args(argv)
     rc = acc.robot_chain(args.robot)
-    joints = 6 if args.robot == "puma560" else 3
+    joints = len(rc.joints)
     theta = arm_kinematics(args.robot, joints).home if args.pose is None else np.radians(args.pose)
     if theta.shape != (joints,):
         raise SystemExit(f"--pose needs {joints} angles (degrees) for {args.robot}")

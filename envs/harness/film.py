@@ -18,6 +18,7 @@ import numpy as np
 from envs.composite import CompositeView
 from envs.harness.trials import Trial, run_trial
 from envs.harness.video import annotate
+from envs.robots import ROBOTS
 from learners.base import Controller
 
 VIDEO_FPS = 30.0  # frames per second of the video
@@ -45,8 +46,8 @@ class TrialFilm:
         fps: frames per second of the video.
         speed: simulated seconds per second of video (1: real time).
         panel: (width, height) of each of the three panels.
-        zoom: magnify the target's neighbourhood in the camera views (default: for RIACS, whose
-            arm is small in its cameras).
+        zoom: magnify the target's neighbourhood in the camera views (default: for a robot whose
+            arm is small in its cameras, :attr:`envs.robots.RobotSpec.magnify`: RIACS).
     """
 
     def __init__(
@@ -60,7 +61,7 @@ class TrialFilm:
     ) -> None:
         self.env, self.base, self.title = env, env.unwrapped, title
         self.fps, self.speed = fps, speed
-        zoom = self.base.robot == "riacs" if zoom is None else zoom
+        zoom = ROBOTS[self.base.robot].magnify if zoom is None else zoom
         sensing_size = (self.base.image_width, self.base.image_height)
         self.view = CompositeView(self.base.model, panel[1], panel[0], sensing_size, zoom)
         self._scratch = mujoco.MjData(self.base.model)  # interpolated kinematic poses

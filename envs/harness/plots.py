@@ -20,10 +20,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from envs.harness.evaluation import Evaluation
+from envs.robots import ROBOTS
 
 MOVE_NAMES = ("coarse", "fine 1", "fine 2", "fine 3", "fine 4")
-#: The arms' names in figure titles, by robot key.
-ARM_NAMES = {"puma560": "PUMA 560", "riacs": "RIACS 3-DOF arm"}
 #: Trials that stopped early (a marker not seen): large black crosses over the coloured points.
 STOPPED_STYLE = {"marker": "X", "s": 90, "c": "black", "edgecolors": "white", "linewidths": 0.8}
 #: The same in the error map, where the cross keeps its error colour inside a black outline.
@@ -34,8 +33,9 @@ PROJECTIONS = ((0, 1, "x-y"), (0, 2, "x-z"), (1, 2, "y-z"))
 
 def subject(robot: str, sensing: str, control: str, controller: str) -> str:
     """The line that names what a figure shows, e.g. ``PUMA 560 · sensing=foveated,
-    control=servo · VisuomotorSOM``."""
-    arm = ARM_NAMES.get(robot, robot)
+    control=servo · VisuomotorSOM``: the arm by its :attr:`~envs.robots.RobotSpec.title` (a
+    name outside :data:`~envs.robots.ROBOTS` as it is)."""
+    arm = ROBOTS[robot].title if robot in ROBOTS else robot
     return f"{arm} · sensing={sensing}, control={control} · {controller}"
 
 

@@ -34,7 +34,7 @@ from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.streams import seed_env
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
-from envs.robots import ROBOTS
+from envs.robots import ROBOTS, robot_of_env
 from envs.sizes import check_image_size
 from learners.persistence import CheckpointError
 from learners.som.config import SOMConfig
@@ -83,8 +83,7 @@ TRAINING_PAIRS = 4
 def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int]:
     """:func:`envs.sizes.check_image_size` against the cameras of the registered reach or pose env
     ``env_id`` (ImageSizeError unless (width, height) px suits them)."""
-    robot = gym.spec(env_id).kwargs.get("robot", "puma560")  # the pose envs are the PUMA's
-    return check_image_size(width, height, ROBOTS[robot].image_aspect)
+    return check_image_size(width, height, ROBOTS[robot_of_env(env_id)].image_aspect)
 
 
 @dataclass(frozen=True)

@@ -18,9 +18,11 @@ import numpy as np
 
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported, registers the envs)
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
+from envs.robots import ROBOTS
 from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
 
-ENV_IDS = {"riacs": "RiacsReach-v0", "puma560": "PumaReach-v0"}
+#: Every robot's reach env, by robot.
+ENV_IDS = {name: spec.reach_env for name, spec in ROBOTS.items()}
 PEER_ID = "Reacher-v5"
 FOVEA_OFFSET = 0.01  # m, marker from target when timing foveated sensing (a fine move's error)
 MS_PER_S = 1e3

@@ -3,7 +3,8 @@
 table.
 
 A grid maps each :class:`~envs.harness.training.RunConfig` field (plus ``robot``, the short name
-of ``env``: "riacs", "puma" or "grasp" for the pose task PumaGrasp-v0) to one value or a list of
+of ``env`` in the robot registry, :func:`envs.robots.sweep_names`: "riacs", "puma" or "grasp"
+for the pose task PumaGrasp-v0) to one value or a list of
 values; the cells are all combinations. ``lattice`` and ``orientation_lattice`` values are
 "12x7x4" or one size n for an n×n×n cube; ``image_size`` values are WIDTHxHEIGHT, "640x480" (or
 give ``width`` and ``height``). A pose cell trains the hierarchical map: ``lattice`` is its
@@ -54,11 +55,11 @@ from envs.harness.training import (
     Trainer,
     check_env_image_size,
 )
+from envs.robots import sweep_names
 from envs.sizes import format_lattice, parse_lattice, parse_size
 from learners.persistence import CheckpointError
 from learners.som.hierarchical_config import HierarchicalConfig
 
-ROBOTS = {"riacs": "RiacsReach-v0", "puma": "PumaReach-v0", "grasp": "PumaGrasp-v0"}
 #: The pose cells' lattices unless the grid gives them: the hierarchical map's defaults.
 _POSE_MAP = HierarchicalConfig()
 CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
@@ -74,12 +75,18 @@ def _fields() -> dict[str, Any]:
     return {f.name: getattr(default, f.name) for f in fields(RunConfig)}
 
 
+def robot_word(env_id: str) -> str:
+    """The grid's word for ``env_id`` (``robot=puma``), or the id itself if it has none."""
+    return {env: word for word, env in sweep_names().items()}.get(env_id, env_id)
+
+
 def parse_value(axis: str, value: Any) -> Any:
     """One grid value of ``axis`` as the RunConfig field wants it."""
     if axis == "robot":
-        if value not in ROBOTS:
-            raise ValueError(f"unknown robot {value!r}; valid robots: {', '.join(ROBOTS)}")
-        return ROBOTS[value]
+        robots = sweep_names()
+        if value not in robots:
+            raise ValueError(f"unknown robot {value!r}; valid robots: {', '.join(robots)}")
+        return robots[value]
     if axis == "image_size":
         return parse_size(value)
     default = _fields()[axis]
@@ -171,7 +178,7 @@ def _config(values: dict[str, Any]) -> RunConfig:
 def cell_name(config: RunConfig) -> str:
     """Readable, unique folder name: the main axes' values and a hash of the configuration."""
     values = config.to_stored()
-    robot = {v: k for k, v in ROBOTS.items()}.get(config.env, config.env)
+    robot = robot_word(config.env)
     parts = [robot if axis == "robot" else values.get(axis) for axis in NAME_AXES]
     text = "_".join(
         format_lattice(p) if isinstance(p, (tuple, list)) else str(p)
@@ -238,7 +245,7 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
     row = {
         "cell": folder.name,
         **{k: list(v) if isinstance(v, tuple) else v for k, v in config.to_stored().items()},
-        "robot": {v: k for k, v in ROBOTS.items()}.get(config.env, config.env),
+        "robot": robot_word(config.env),
         "neurons": n,
         "n_per_axis": round(n ** (1 / 3), 6),
         "learned_trials": som.t,

@@ -1,4 +1,4 @@
-"""Kinematic accuracy of the two arms: which chain parameter moves the tool point most, and a check
+"""Kinematic accuracy of an arm: which chain parameter moves the tool point most, and a check
 of Němeček's linear error model against MuJoCo models built with perturbed parameters.
 
 Each robot is a :class:`~models.chain.Chain` whose factors follow its MJCF: between joint i and
@@ -20,58 +20,27 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models import puma560, riacs, robot_path
-from models.chain import (
-    RIACS_CHAIN,
-    RIACS_JOINTS,
-    Chain,
-    dh_chain,
-    elementary,
-    riacs_parameters,
-    small_angles,
-)
+from models import available_models, robot_path
+from models.chain import RobotChain, elementary, small_angles
+from models.robot_model import robot_model
 
 ZERO_LENGTH_SCALE = 0.1  #: m: deviation of a zero length = level × this
 ZERO_ANGLE_SCALE = np.deg2rad(100.0)  #: rad: deviation of a zero angle = level × this
 
 
-@dataclass(frozen=True)
-class RobotChain:
-    """A robot's chain and where each segment lives in its MJCF.
-
-    Attributes:
-        robot: model name; chain: the chain T_0n from site ``base`` to site ``tcp``.
-        joints: positions in k of the joint angles, in qpos order.
-        segments: for each joint, the MJCF element ("body" or "site", name) whose local transform
-            is the product of the chain's fixed factors after that joint.
-    """
-
-    robot: str
-    chain: Chain
-    joints: tuple[int, ...]
-    segments: tuple[tuple[str, str], ...]
-
-    def parameters(self, theta: np.ndarray) -> np.ndarray:
-        """Nominal k for joint angles (..., J), rad."""
-        if self.robot == "riacs":
-            return riacs_parameters(theta, riacs.LINK1, riacs.LINK2)
-        return dh_chain(puma560.DH, theta)[1]
-
-    def is_angle(self) -> np.ndarray:
-        """(N,) bool: parameter is an angle (rad) rather than a length (m)."""
-        return np.array([e.is_rotation for e in self.chain.elements])
-
-
 def robot_chain(robot: str) -> RobotChain:
-    """The chain of ``"puma560"`` (every DH θ, d, a, α) or ``"riacs"`` (θ1-θ3, link1, link2)."""
-    if robot == "puma560":
-        chain, _ = dh_chain(puma560.DH, puma560.HOME)
-        segments = (*(("body", f"link{i}") for i in range(2, 7)), ("site", "tcp"))
-        return RobotChain(robot, chain, tuple(range(0, 24, 4)), segments)
-    if robot == "riacs":
-        segments = (("body", "link1"), ("body", "link2"), ("site", "tcp"))
-        return RobotChain(robot, RIACS_CHAIN, tuple(RIACS_JOINTS), segments)
-    raise ValueError(f"no chain for robot {robot!r}; valid: puma560, riacs")
+    """The chain of ``robot`` (:attr:`~models.robot_model.RobotModel.chain`: the PUMA's every DH
+    θ, d, a, α; the RIACS arm's θ1-θ3, link1, link2); ValueError naming the robots that have
+    one."""
+    model = robot_model(robot)
+    if model.chain is None:
+        raise ValueError(f"no chain for robot {robot!r}; valid: {', '.join(chain_robots())}")
+    return model.chain()
+
+
+def chain_robots() -> tuple[str, ...]:
+    """The robots whose model has a chain for this analysis."""
+    return tuple(name for name in available_models() if robot_model(name).chain is not None)
 
 
 def sensitivity(rc: RobotChain, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,26 +1,34 @@
-"""PUMA 560: DH kinematics (Brause Fig. 2b) and the reach-target workspace."""
+"""PUMA 560: DH kinematics (Brause Fig. 2b), the reach-target workspace and the robot's
+:class:`~models.robot_model.RobotModel`."""
 
-import numpy as np
-
+from models.puma560.arm import accuracy_chain, tool, wrist
 from models.puma560.kinematics import ARM_REACH, DH, HOME, frames, wrist_center, wrist_ik
-from models.workspace import BoxWorkspace
+from models.puma560.workspace import (
+    BASE_POS,
+    WORKSPACE,
+    WORKSPACE_BASE_LOWER,
+    WORKSPACE_BASE_UPPER,
+)
+from models.robot_model import RobotModel
 
-#: World position of DH frame 0 (site ``base``): the shoulder, 0.6718 m above the floor.
-BASE_POS = np.array([0.0, 0.0, 0.6718])
-
-#: Wrist-centre target box relative to frame 0 (m): 0.5 × 0.4 × 0.6, every point reachable in the
-#: right-above configuration with joints 1-3 in range, ≥ 3 cm inside the reach sphere and ≥ 0.2 m
-#: from the joint-1 axis (see README.md).
-WORKSPACE_BASE_LOWER = np.array([-0.25, 0.35, -0.30])
-WORKSPACE_BASE_UPPER = np.array([0.25, 0.75, 0.30])
-WORKSPACE = BoxWorkspace(BASE_POS + WORKSPACE_BASE_LOWER, BASE_POS + WORKSPACE_BASE_UPPER)
+#: The PUMA's kinematics: joints 1-3 move the wrist centre, joints 1-6 the tool point.
+MODEL = RobotModel(
+    name="puma560",
+    reach=ARM_REACH,
+    workspace=WORKSPACE,
+    arms={3: wrist, 6: tool},
+    chain=accuracy_chain,
+)
 
 __all__ = [
     "ARM_REACH",
     "BASE_POS",
     "DH",
     "HOME",
+    "MODEL",
     "WORKSPACE",
+    "WORKSPACE_BASE_LOWER",
+    "WORKSPACE_BASE_UPPER",
     "frames",
     "wrist_center",
     "wrist_ik",

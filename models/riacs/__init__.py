@@ -1,9 +1,11 @@
-"""RIACS 3-DOF arm (Jorgensen 1990): report formulas and the reachable workspace."""
+"""RIACS 3-DOF arm (Jorgensen 1990): report formulas, the reachable workspace and the robot's
+:class:`~models.robot_model.RobotModel`."""
 
 import math
 
 import numpy as np
 
+from models.riacs.arm import accuracy_chain, tool
 from models.riacs.kinematics import (
     ARM_REACH,
     FOCAL_LENGTH,
@@ -18,6 +20,7 @@ from models.riacs.kinematics import (
     robot3df,
     robot3dinv,
 )
+from models.robot_model import RobotModel
 from models.workspace import ReachableWorkspace
 
 
@@ -41,6 +44,11 @@ WORKSPACE = ReachableWorkspace(
     joint_upper=UPPER,
 )
 
+#: The RIACS arm's kinematics: its three joints move the tool point.
+MODEL = RobotModel(
+    name="riacs", reach=ARM_REACH, workspace=WORKSPACE, arms={3: tool}, chain=accuracy_chain
+)
+
 __all__ = [
     "ARM_REACH",
     "FOCAL_LENGTH",
@@ -49,6 +57,7 @@ __all__ = [
     "LINK1",
     "LINK2",
     "LOWER",
+    "MODEL",
     "UPPER",
     "WORKSPACE",
     "camera",
