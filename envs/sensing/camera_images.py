@@ -4,11 +4,15 @@ of the agent's choosing (``obs_mode="pixels"`` of the reach envs)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from envs.sensing.rendering import VISIBLE_GROUPS
 from envs.sensing.viewports import View, ViewportRenderer
+
+if TYPE_CHECKING:
+    import mujoco  # imported at run time only where used: envs picks the GL back-end first
 
 #: Grid spacing (m) the floor is drawn with (see ViewportRenderer's plane_grid): half the cost
 #: of a small image.
@@ -34,7 +38,9 @@ class CameraImages:
         model: the MuJoCo model; cameras: camera names; height, width: pixels per image.
     """
 
-    def __init__(self, model, cameras: Sequence[str], height: int, width: int) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, cameras: Sequence[str], height: int, width: int
+    ) -> None:
         self.cameras, self.height, self.width = tuple(cameras), height, width
         self._renderer = ViewportRenderer(
             model,
@@ -46,7 +52,7 @@ class CameraImages:
         )
         self._views = [View.whole(name, height, width) for name in self.cameras]
 
-    def render(self, data) -> list[np.ndarray]:
+    def render(self, data: mujoco.MjData) -> list[np.ndarray]:
         """One image (height, width, 3) uint8 per camera, rows top first, of the positions in
         ``data``."""
         images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)

@@ -21,12 +21,16 @@ in common (the part the robot's links hide of the marker stays its own).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from envs.sensing.marker_fit import rays
 from envs.sensing.stereo import SphereSighting, StereoRig
 from envs.sensing.viewports import Window
+
+if TYPE_CHECKING:
+    import mujoco  # imported at run time only where used: envs picks the GL back-end first
 
 #: Window pixels per base-image pixel (each axis).
 FOVEA_DENSITY = 4.0
@@ -106,7 +110,7 @@ class FoveatedSensing:
         return -0.5 + min(max(steps, 0), last) / self.density
 
     def sense(
-        self, data, marker, radius: float, expected: np.ndarray | None = None
+        self, data: mujoco.MjData, marker, radius: float, expected: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pixels (4,) of the sphere centre in the base images (NaN where not visible) and
         visible (2,) bool, from windows about ``expected`` (4,) px; whole images first if
@@ -120,7 +124,7 @@ class FoveatedSensing:
         return self.sense_many(data, (marker,), radius, expected)[0]
 
     def sense_many(
-        self, data, markers, radius: float, expected: np.ndarray | None = None
+        self, data: mujoco.MjData, markers, radius: float, expected: np.ndarray | None = None
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """:meth:`sense` of several spheres of one ``radius`` drawn with the same geom groups
         (one task's target markers, or its arm's), ``expected`` (4M,) px or None: each in its
@@ -142,12 +146,12 @@ class FoveatedSensing:
         wholes = (
             self.stereo.sense_many(data, [markers[k] for k in pending], radius) if pending else []
         )
-        for k, (whole, seen) in zip(pending, wholes, strict=True):
-            found[k] = (whole, seen)
-            if seen.any():
+        for k, (whole, whole_visible) in zip(pending, wholes, strict=True):
+            found[k] = (whole, whole_visible)
+            if whole_visible.any():
                 windows = self.windows(whole, radius)
                 pixels, visible = self.stereo.sense(data, markers[k], radius, windows)
-                if visible.sum() >= seen.sum():
+                if visible.sum() >= whole_visible.sum():
                     found[k] = (pixels, visible)
         return found  # type: ignore[return-value]
 

@@ -44,7 +44,7 @@ class MarkerColour:
             for lo, hi in self.hue_ranges
         ]
         for other in masks[1:]:
-            masks[0] |= other
+            np.bitwise_or(masks[0], other, out=masks[0])
         return masks[0]
 
 
@@ -134,10 +134,10 @@ def outline_edges(blob: Blob, depth: np.ndarray, margin: float = 0.0) -> np.ndar
     m, z = blob.mask, depth
     points = []
     for axis in (0, 1):
-        a = [slice(None), slice(None)]
-        b = [slice(None), slice(None)]
-        a[axis], b[axis] = slice(None, -1), slice(1, None)
-        a, b = tuple(a), tuple(b)
+        first = [slice(None), slice(None)]
+        second = [slice(None), slice(None)]
+        first[axis], second[axis] = slice(None, -1), slice(1, None)
+        a, b = tuple(first), tuple(second)
         # (first, second) neighbour pairs along the axis; the outside one must be farther.
         out_second = m[a] & ~m[b] & (z[b] > z[a] + margin)
         out_first = m[b] & ~m[a] & (z[a] > z[b] + margin)

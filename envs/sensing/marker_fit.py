@@ -11,8 +11,9 @@ projection of C.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -39,11 +40,37 @@ MIN_SLIVER_ARC = 0.8
 RADIUS_TOL = 0.03
 
 
+class OutlineCamera(Protocol):
+    """What the fit needs of a camera (:class:`envs.sensing.stereo.PinholeCamera` has it)."""
+
+    @property
+    def position(self) -> np.ndarray: ...  # (3,) world, m
+
+    @property
+    def rotation(self) -> np.ndarray: ...  # (3, 3) columns = camera x, y, z in world
+
+    @property
+    def focal(self) -> np.ndarray: ...  # (2,) px per unit of normalised coordinate
+
+    @property
+    def pixel_projection(self) -> np.ndarray: ...  # (3, 4)
+
+    def to_normalized(self, uv: np.ndarray) -> np.ndarray: ...
+
+    def project(self, points: np.ndarray) -> np.ndarray: ...
+
+    def sphere_area(self, centres: np.ndarray, radius: float) -> np.ndarray: ...
+
+
+#: The rig's triangulation: pixels (N, 4) -> world points (N, 3) m.
+Triangulate = Callable[[np.ndarray], np.ndarray]
+
+
 @dataclass(frozen=True)
 class CameraOutline:
     """What one camera saw of the sphere: outline points and blob area, in base pixels."""
 
-    camera: object  # envs.sensing.stereo.PinholeCamera
+    camera: OutlineCamera
     points: np.ndarray  # (m, 2) px, outline points on the sphere's own edge
     area: float  # px², pixels of the blob (in base pixels)
     start: np.ndarray  # (2,) px, a first guess of the centre's image (from the blob's pixels)
@@ -110,7 +137,7 @@ def outline_residual_px(
             camera.pixel_projection, camera.position, centre, radius, uv, d
         )
     axis = centre - camera.position
-    dist = np.linalg.norm(axis)
+    dist = float(np.linalg.norm(axis))
     axis = axis / dist
     alpha = np.arcsin(min(radius / dist, 1.0))
     across = d - (d @ axis)[:, None] * axis
@@ -124,7 +151,7 @@ def outline_residual_px(
 
 
 def locate(
-    outlines: Sequence[CameraOutline | None], radius: float, triangulate
+    outlines: Sequence[CameraOutline | None], radius: float, triangulate: Triangulate
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The sphere centre's image in each camera from what the cameras saw.
 
@@ -152,27 +179,34 @@ def locate(
     """
     n = len(outlines)
     pixels, trusted = np.full(2 * n, np.nan), np.zeros(n, dtype=bool)
-    used = [
-        k for k, o in enumerate(outlines) if o is not None and len(o.points) >= MIN_OUTLINE_POINTS
-    ]
+    present = {
+        k: o
+        for k, o in enumerate(outlines)
+        if o is not None and len(o.points) >= MIN_OUTLINE_POINTS
+    }
+    used = list(present)
     while used:
-        result = _fit(outlines, used, radius, triangulate)
-        ok = result[1] if result is not None else dict.fromkeys(used, False)
-        if all(ok.values()):
-            for k in used:
-                pixels[2 * k : 2 * k + 2] = outlines[k].camera.project(result[0][None])[0]
-                trusted[k] = True
-            return pixels, trusted, result[0]
+        result = _fit({k: present[k] for k in used}, radius, triangulate)
+        if result is None:
+            ok = dict.fromkeys(used, False)
+        else:
+            centre, ok = result
+            if all(ok.values()):
+                for k in used:
+                    pixels[2 * k : 2 * k + 2] = present[k].camera.project(centre[None])[0]
+                    trusted[k] = True
+                return pixels, trusted, centre
         kept = [k for k in used if ok[k]]
         # None trusted: the camera that saw least may have spoilt the fit; try without it.
-        used = kept or sorted(used, key=lambda k: outlines[k].area)[1:]
+        used = kept or sorted(used, key=lambda k: present[k].area)[1:]
     return pixels, trusted, np.full(3, np.nan)
 
 
 def _fit(
-    outlines: Sequence[CameraOutline | None], used: list[int], radius: float, triangulate
+    outlines: dict[int, CameraOutline], radius: float, triangulate: Triangulate
 ) -> tuple[np.ndarray, dict[int, bool]] | None:
-    """Fit C to the outlines of cameras ``used``; C and whether each camera is trusted."""
+    """Fit C to the outlines of the cameras (by index); C and whether each camera is trusted."""
+    used = list(outlines)
     if len(used) == 2:
         start = triangulate(np.concatenate([outlines[k].start for k in used])[None])[0]
     else:  # one camera: distance from the blob's size, r_px ≈ f R / distance

@@ -19,6 +19,7 @@ import re
 import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -36,6 +37,10 @@ _HELP = (
     "when there is no GPU) or MUJOCO_GL=osmesa after installing the Debian package libosmesa6 "
     "(apt-get install libosmesa6)."
 )
+
+if TYPE_CHECKING:
+    import mujoco  # imported at run time only where used: envs picks the GL back-end first
+
 #: A GL library in /proc/self/maps (loaded by anyone in this process, not only by this module).
 _GL_MAPPED = re.compile(r"/lib(EGL|OSMesa|GLX|GL)[._][^/\n]*$", re.MULTILINE)
 
@@ -130,8 +135,9 @@ def _set_gl_context(context) -> None:
     from mujoco.rendering.classic import gl_context
 
     gl_context.GLContext = mujoco.GLContext = context
-    if "mujoco.gl_context" in sys.modules:
-        sys.modules["mujoco.gl_context"].GLContext = context
+    if "mujoco.gl_context" in sys.modules:  # an older mujoco's module name, if it was imported
+        # A module found by name is a plain ModuleType to the type checker.
+        sys.modules["mujoco.gl_context"].GLContext = context  # type: ignore[attr-defined]
 
 
 def _lazy_gl_context(max_width: int, max_height: int):
@@ -265,7 +271,7 @@ class CameraRenderer:
     without them (llvmpipe, 320×240: 12 ms -> 4.7 ms a frame).
     """
 
-    def __init__(self, model, height: int, width: int, fast: bool = True) -> None:
+    def __init__(self, model: mujoco.MjModel, height: int, width: int, fast: bool = True) -> None:
         if width > model.vis.global_.offwidth or height > model.vis.global_.offheight:
             raise ValueError(
                 f"{width}x{height} exceeds the model's off-screen buffer "
@@ -297,7 +303,9 @@ class CameraRenderer:
                     flags[getattr(mujoco.mjtRndFlag, flag)] = 0
         return self._renderer
 
-    def render(self, data, camera: str, groups: Sequence[int] | None = None) -> np.ndarray:
+    def render(
+        self, data: mujoco.MjData, camera: str, groups: Sequence[int] | None = None
+    ) -> np.ndarray:
         """RGB image (height, width, 3) uint8 of ``camera``; ``groups`` = geom groups to draw."""
         import mujoco
 
@@ -326,8 +334,8 @@ class CameraRenderer:
 
 
 def render_camera(
-    model,
-    data,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
     camera: str,
     height: int = 240,
     width: int = 320,

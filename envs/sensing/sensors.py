@@ -25,13 +25,16 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from envs.sensing.foveated import FoveatedSensing
 from envs.sensing.marker_detection import MarkerColour
 from envs.sensing.stereo import StereoRig
+
+if TYPE_CHECKING:
+    import mujoco  # imported at run time only where used: envs picks the GL back-end first
 
 Sighting = tuple[np.ndarray, np.ndarray]  # pixels (4M,) px, visible (2M,) bool
 
@@ -76,11 +79,11 @@ class Sensor(ABC):
     may_leave_image: bool = True
 
     @abstractmethod
-    def sense_target(self, data) -> Sighting:
+    def sense_target(self, data: mujoco.MjData) -> Sighting:
         """The target markers' centres, from ``data`` (positions computed)."""
 
     @abstractmethod
-    def sense_effector(self, data, expected: np.ndarray) -> Sighting:
+    def sense_effector(self, data: mujoco.MjData, expected: np.ndarray) -> Sighting:
         """The effector markers' centres; ``expected`` (4M,) px is where they are expected (NaN
         where not known)."""
 
@@ -98,10 +101,10 @@ class ProjectSensor(Sensor):
     def __init__(self, stereo: StereoRig, target: np.ndarray, effector: np.ndarray) -> None:
         self.stereo, self.target, self.effector = stereo, target, effector
 
-    def sense_target(self, data) -> Sighting:
+    def sense_target(self, data: mujoco.MjData) -> Sighting:
         return joined([self._project(data.geom_xpos[g]) for g in self.target])
 
-    def sense_effector(self, data, expected: np.ndarray) -> Sighting:
+    def sense_effector(self, data: mujoco.MjData, expected: np.ndarray) -> Sighting:
         return joined([self._project(data.geom_xpos[g]) for g in self.effector])
 
     def _project(self, point: np.ndarray) -> Sighting:
@@ -137,10 +140,10 @@ class RenderSensor(Sensor):
         self.effector_colours = markers.effector_colours
         self.target_radius = target_radius if markers.target_outline else None
 
-    def sense_target(self, data) -> Sighting:
+    def sense_target(self, data: mujoco.MjData) -> Sighting:
         return joined(self.stereo.sense_many(data, self.target_colours, self.target_radius))
 
-    def sense_effector(self, data, expected: np.ndarray) -> Sighting:
+    def sense_effector(self, data: mujoco.MjData, expected: np.ndarray) -> Sighting:
         return joined(self.stereo.sense_many(data, self.effector_colours, self.marker_radius))
 
 
@@ -168,10 +171,10 @@ class FoveatedSensor(Sensor):
         )
         self.marker_radius, self.target_radius = marker_radius, target_radius
 
-    def sense_target(self, data) -> Sighting:
+    def sense_target(self, data: mujoco.MjData) -> Sighting:
         return joined(self.fovea.sense_many(data, self.target_colours, self.target_radius))
 
-    def sense_effector(self, data, expected: np.ndarray) -> Sighting:
+    def sense_effector(self, data: mujoco.MjData, expected: np.ndarray) -> Sighting:
         return joined(
             self.fovea.sense_many(data, self.effector_colours, self.marker_radius, expected)
         )

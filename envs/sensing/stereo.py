@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -26,6 +26,9 @@ from envs.sensing.marker_fit import CameraOutline, locate
 from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
 from envs.sensing.triangulation import camera_floats, triangulate_elementwise
 from envs.sensing.viewports import View, ViewportRenderer, Window
+
+if TYPE_CHECKING:
+    import mujoco  # imported at run time only where used: envs picks the GL back-end first
 
 #: Grid spacing (m) the sensing cameras draw the floor with (ViewportRenderer's plane_grid).
 #: The scenes' 0.05 m grid makes a 16 m floor of about 10^5 quads, half the cost of a whole
@@ -48,7 +51,9 @@ class PinholeCamera:
     center: np.ndarray  # (2,) pixel (u, v) of the optical axis
 
     @classmethod
-    def from_model(cls, model, data, name: str, height: int, width: int) -> PinholeCamera:
+    def from_model(
+        cls, model: mujoco.MjModel, data: mujoco.MjData, name: str, height: int, width: int
+    ) -> PinholeCamera:
         """Read a MuJoCo camera (``fovy`` or ``sensorsize``/``focal``/``principal``)."""
         cid = model.camera(name).id
         sensor = model.cam_sensorsize[cid]
@@ -202,8 +207,8 @@ class StereoRig(CameraPair):
 
     def __init__(
         self,
-        model,
-        data,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
         height: int = 240,
         width: int = 320,
         cameras: Sequence[str] = ("cam_left", "cam_right"),
@@ -216,7 +221,7 @@ class StereoRig(CameraPair):
         # Both cameras side by side in one buffer, rendered and read back together.
         self._renderer = ViewportRenderer(model, height, 2 * width, plane_grid=SENSING_PLANE_GRID)
 
-    def refresh(self, data) -> None:
+    def refresh(self, data: mujoco.MjData) -> None:
         """Re-read both cameras from the model and ``data`` (after ``mj_forward``): after a change
         of camera pose or focal length, projection and triangulation follow the scene."""
         h, w = self.height, self.width
@@ -235,7 +240,7 @@ class StereoRig(CameraPair):
 
     def sense(
         self,
-        data,
+        data: mujoco.MjData,
         marker: MarkerColour,
         radius: float | None = None,
         windows: Sequence[Window] | None = None,
@@ -276,7 +281,7 @@ class StereoRig(CameraPair):
 
     def sense_many(
         self,
-        data,
+        data: mujoco.MjData,
         markers: Sequence[MarkerColour],
         radius: float | None = None,
         windows: Sequence[Window] | None = None,
@@ -301,7 +306,7 @@ class StereoRig(CameraPair):
 
     def sense_sphere(
         self,
-        data,
+        data: mujoco.MjData,
         marker: MarkerColour,
         radius: float,
         windows: Sequence[Window] | None = None,
@@ -335,16 +340,17 @@ class StereoRig(CameraPair):
         return SphereSighting(pixels, visible, framed, blank, centre)
 
     def render_views(
-        self, data, groups: Sequence[int], windows: Sequence[Window] | None = None
+        self, data: mujoco.MjData, groups: Sequence[int], windows: Sequence[Window] | None = None
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """Both cameras' (RGB (h, w, 3) uint8, depth (h, w) m) images of the geom ``groups``:
         their whole images, or the given windows (:meth:`views`)."""
         return self._renderer.render(data, self.views(windows), groups)
 
     def _render(
-        self, data, marker: MarkerColour, windows: Sequence[Window] | None
+        self, data: mujoco.MjData, marker: MarkerColour, windows: Sequence[Window] | None
     ) -> tuple[list[View], list[tuple[np.ndarray, np.ndarray]]]:
         """The views and their (RGB, depth) images, drawing the marker's geom groups."""
+        groups: tuple[int, ...]
         if marker.together:  # the pose task: the object and the robot in the same images
             groups = (GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
         elif marker.is_target:

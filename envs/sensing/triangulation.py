@@ -35,7 +35,7 @@ def camera_floats(camera) -> CameraFloats:
 
 
 def triangulate_elementwise(
-    cameras: Sequence[CameraFloats], q: Sequence[Number], normalized: bool = False
+    cameras: Sequence[CameraFloats], q: Sequence[Number] | np.ndarray, normalized: bool = False
 ) -> tuple[Number, Number, Number]:
     """World point (x, y, z) in metres whose images are closest, in the least-squares sense of
     the four ray planes, to q = (u_left, v_left, u_right, v_right).

@@ -13,6 +13,7 @@ import math
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 
@@ -23,6 +24,9 @@ from envs.sensing.rendering import (
     gl_start_error,
     mark_gl_started,
 )
+
+if TYPE_CHECKING:
+    import mujoco  # imported at run time only where used: envs picks the GL back-end first
 
 #: Slices and stacks of the built-in meshes (spheres, capsules, cylinders): 10° facets keep a
 #: sphere's outline within 1 - cos 5° = 0.4 % of its radius of a circle. MuJoCo's default
@@ -127,7 +131,7 @@ class ViewportRenderer:
 
     def __init__(
         self,
-        model,
+        model: mujoco.MjModel,
         max_height: int,
         max_width: int,
         off_flags: Sequence[str] = SENSING_OFF_FLAGS,
@@ -139,13 +143,16 @@ class ViewportRenderer:
         self.model, self.max_height, self.max_width = model, max_height, max_width
         self.off_flags, self.textures = tuple(off_flags), textures
         self.own_headlight, self.plane_grid, self.facets = own_headlight, plane_grid, facets
-        self._gl = self._context = self._scene = None
+        self._gl: Any = None  # the GL back-end's GLContext (its class is chosen at run time)
+        self._context: mujoco.MjrContext | None = None
+        self._scene: mujoco.MjvScene | None = None
         self._free: weakref.finalize | None = None  # frees _context and _gl, once
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
         self._cameras: dict = {}  # camera name -> mujoco.MjvCamera
         self._geoms: dict = {}  # (groups, scene geoms) -> scene's model geoms, their ids
 
-    def _start(self) -> None:
+    def _start(self) -> tuple[mujoco.MjrContext, mujoco.MjvScene]:
+        """Make the GL context, the rendering context and the scene; returns the last two."""
         import mujoco
 
         check_gl_allowed()
@@ -173,10 +180,17 @@ class ViewportRenderer:
         # order or under another renderer's context (see free_gl).
         self._free = weakref.finalize(self, free_gl, gl, context)
         self._gl, self._context = gl, context
-        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
-        self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, context)
+        scene = self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
         for flag in self.off_flags:
-            self._scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+            scene.flags[getattr(mujoco.mjtRndFlag, flag)] = 0
+        return context, scene
+
+    def _started(self) -> tuple[mujoco.MjrContext, mujoco.MjvScene]:
+        """The rendering context and the scene, made at the first call."""
+        if self._context is None or self._scene is None:
+            return self._start()
+        return self._context, self._scene
 
     def _option(self, groups: tuple[int, ...]):
         import mujoco
@@ -202,27 +216,41 @@ class ViewportRenderer:
             self._cameras[name] = cam
         return cam
 
-    def _model_geoms(self, groups: tuple[int, ...]) -> tuple[list, np.ndarray]:
+    def _model_geoms(
+        self, scene: mujoco.MjvScene, groups: tuple[int, ...]
+    ) -> tuple[list, np.ndarray]:
         """The scene's geoms that are model geoms, and their ids (n,), after an update with
         ``groups`` (the same for every update with the same groups)."""
         import mujoco
 
-        scene = self._scene
         key = (groups, scene.ngeom)
         if key not in self._geoms:
             geoms = [g for g in scene.geoms[: scene.ngeom] if g.objtype == mujoco.mjtObj.mjOBJ_GEOM]
             self._geoms[key] = (geoms, np.array([g.objid for g in geoms], dtype=int))
         return self._geoms[key]
 
+    @overload
     def render(
-        self, data, views: Sequence[View], groups: Sequence[int], depth: bool = True
-    ) -> list[tuple[np.ndarray, np.ndarray | None]]:
+        self,
+        data: mujoco.MjData,
+        views: Sequence[View],
+        groups: Sequence[int],
+        depth: Literal[True] = True,
+    ) -> list[tuple[np.ndarray, np.ndarray]]: ...
+
+    @overload
+    def render(
+        self, data: mujoco.MjData, views: Sequence[View], groups: Sequence[int], depth: bool
+    ) -> list[tuple[np.ndarray, np.ndarray | None]]: ...
+
+    def render(
+        self, data: mujoco.MjData, views: Sequence[View], groups: Sequence[int], depth: bool = True
+    ) -> Sequence[tuple[np.ndarray, np.ndarray | None]]:
         """RGB (h, w, 3) uint8 and depth (h, w) m of each view, rows top first; with
         ``depth=False`` only the colours are read back (depth None)."""
         import mujoco
 
-        if self._gl is None:
-            self._start()
+        context, scene = self._started()
         self._gl.make_current()
         widths = [v.window.width for v in views]
         height = max(v.window.height for v in views)
@@ -232,7 +260,7 @@ class ViewportRenderer:
                 f"{self.max_width}x{self.max_height}; make it larger"
             )
         option = self._option(tuple(groups))
-        scene, x = self._scene, 0
+        x = 0
         mujoco.mjv_updateScene(
             self.model, data, option, None, self._camera(views[0].camera),
             mujoco.mjtCatBit.mjCAT_ALL, scene,
@@ -249,17 +277,17 @@ class ViewportRenderer:
             if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
                 _set_frustum(scene, view)
                 if culling is None:
-                    geoms, ids = self._model_geoms(tuple(groups))
+                    geoms, ids = self._model_geoms(scene, tuple(groups))
                     culling = (geoms, *_bounding_capsules(self.model, data, ids))
                 hidden = _hide_outside(scene, *culling, view.window.depth)
             w = view.window
-            mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, self._context)
+            mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, context)
             for geom, kind in hidden:
                 geom.type = kind
             x += w.width
         rgb = np.empty((height, x, 3), dtype=np.uint8)
         raw = np.empty((height, x), dtype=np.float32) if depth else None
-        mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), self._context)
+        mujoco.mjr_readPixels(rgb, raw, mujoco.MjrRect(0, 0, x, height), context)
         rgb = rgb[::-1]  # GL rows are bottom first
         if raw is not None:
             raw = raw[::-1]
@@ -304,7 +332,9 @@ def _set_frustum(scene, view: View) -> None:
         glcam.frustum_bottom = (cv - bottom) / fv * near
 
 
-def _bounding_capsules(model, data, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _bounding_capsules(
+    model: mujoco.MjModel, data: mujoco.MjData, ids: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Capsules that contain the geoms ``ids`` (n,): segment ends (n, 2, 3) m and radii (n,) m.
 
     A capsule or cylinder is bounded by the capsule of its own radius about its axis (a long
