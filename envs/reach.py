@@ -113,7 +113,7 @@ class ReachEnv(ArmScene):
 
     - ``reward_distance``: minus the distance between the two goals triangulated by the stereo
       rig (``envs.reward``). With ``sensing="project"`` it is minus the ground-truth distance to
-      ~1e-12 m; with ``"render"`` it carries the sensing error (~2 mm median).
+      ~1e-12 m; with ``"render"`` it carries the sensing error (measured in docs/sensing.md).
     - ``reward_unseen``: minus the robot's reach (RIACS 1.0 m, PUMA 0.86 m) when the effector
       marker was not seen by both cameras after the move (``info["visible_effector"]``; the
       achieved goal is then the last sighting, not where the arm is), else 0. It travels in

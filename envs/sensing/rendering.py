@@ -267,8 +267,8 @@ class CameraRenderer:
     """Renders named cameras of one model to RGB arrays, created lazily (so envs pickle).
 
     ``fast=True`` turns off shadows, reflections, the skybox, textures and multisampling: the
-    sensing cameras only need flat colours, and software rendering is about 2.5 times faster
-    without them (llvmpipe, 320×240: 12 ms -> 4.7 ms a frame).
+    sensing cameras only need flat colours, and software rendering is faster without them
+    (measured in docs/sensing.md, "Rendering back-ends").
     """
 
     def __init__(self, model: mujoco.MjModel, height: int, width: int, fast: bool = True) -> None:
