@@ -2,9 +2,9 @@
 
 Importing this package chooses the off-screen GL back-end (before mujoco is imported) and
 registers ``RiacsReach-v0``, ``PumaReach-v0``, ``PumaGrasp-v0`` and ``PumaTrack-v0`` with
-Gymnasium: every robot's reach env and pose env from the registry (:data:`envs.robots.ROBOTS`,
+Gymnasium: every robot's reach env and grasp env from the registry (:data:`envs.robots.ROBOTS`,
 :func:`register_robot`), and the PUMA's path-tracking env. ``gym.make`` returns the reach and
-pose envs in :class:`envs.goal_env.GoalEnvWrapper`, which has ``compute_reward``.
+grasp envs in :class:`envs.goal_env.GoalEnvWrapper`, which has ``compute_reward``.
 """
 
 from envs.sensing.rendering import configure_gl_backend
@@ -23,7 +23,7 @@ from models.paths import N_STEPS  # noqa: E402
 def register_robot(robot: str) -> None:
     """Register the envs of ``ROBOTS[robot]`` with Gymnasium: its reach env
     (``envs.reach:ReachEnv`` with ``robot`` and its fewest controlled joints; ``gym.make(...,
-    joints=n)`` for others), and its pose env (``envs.grasp:GraspEnv``) if it has one. Importing
+    joints=n)`` for others), and its grasp env (``envs.grasp:GraspEnv``) if it has one. Importing
     ``envs`` does it for every robot; call it for an entry added later."""
     spec = ROBOTS[robot]
     gym.register(

@@ -107,7 +107,7 @@ class CompositeView:
         Args:
             data: the MjData to draw.
             target_px, effector_px: (4M,) sensing pixels (left u, v, right u, v) of M markers
-                each (the reach task's one, the pose task's three); NaN entries (not seen) are
+                each (the reach task's one, the grasp task's three); NaN entries (not seen) are
                 not drawn.
             trail: earlier detections (4,) each of the first marker, joined by a line in their
                 order.

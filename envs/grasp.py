@@ -26,7 +26,7 @@ from models.puma560.grasp import (
 )
 from models.workspace import BoxWorkspace
 
-#: The Gymnasium ids of the pose envs: every robot's of the registry (envs/robots.py).
+#: The Gymnasium ids of the grasp envs: every robot's of the registry (envs/robots.py).
 GRASP_ENV_IDS = grasp_env_ids()
 #: The geom groups that may hide the object from a camera: the robot and its markers.
 ROBOT_GROUPS = np.array([int(g in (GROUP_ROBOT, GROUP_MARKER)) for g in range(6)], dtype=np.uint8)

@@ -1,4 +1,4 @@
-"""The pose task's reward: one function for the step and for relabelled goals (HER).
+"""The grasp task's reward: one function for the step and for relabelled goals (HER).
 
 A goal is the 12 sensed pixels of three markers (``models.puma560.grasp.MARKER_OFFSETS``
 order), each (u_left, v_left, u_right, v_right). Each marker is triangulated by the stereo rig

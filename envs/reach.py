@@ -572,7 +572,7 @@ class ReachEnv(ArmScene):
     def _effector_out_of_view(self) -> bool:
         """Whether every marker sphere on the arm lies wholly outside both cameras' images (or
         behind them), by more than OUT_OF_VIEW_PX: rendering could not see any of it, so it is
-        not rendered (the pose task's parked arm at every reset)."""
+        not rendered (the grasp task's parked arm at every reset)."""
         centres = self.data.geom_xpos[self.effector_geom_ids]  # (M, 3)
         size = np.array([self.image_width - 1.0, self.image_height - 1.0])
         for camera in self.stereo.cameras:

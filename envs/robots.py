@@ -63,7 +63,7 @@ class MarkerSet:
         return (*self.effector, *self.target, *self.drawn)
 
 
-#: The PUMA's pose task (``PumaGrasp-v0``): three markers on the hand, three on the object.
+#: The PUMA's grasp task (``PumaGrasp-v0``): three markers on the hand, three on the object.
 PUMA_GRASP = MarkerSet(
     scene="scene_grasp.xml",
     site="tcp",
@@ -112,9 +112,9 @@ class RobotSpec:
             workspace is set for it); sensing images of another shape are refused.
         magnify: the arm is small in its cameras' images: films and the demo's scene images
             magnify the marker's neighbourhood.
-        grasp: the pose task's markers, for a robot that has one (the PUMA: the pose env
+        grasp: the grasp task's markers, for a robot that has one (the PUMA: the grasp env
             ``envs.grasp.GraspEnv`` is built on its geometry, ``models.puma560.grasp``).
-        grasp_env: the Gymnasium id of that pose task's env; grasp_short: its word in a sweep
+        grasp_env: the Gymnasium id of that grasp task's env; grasp_short: its word in a sweep
             grid.
         reach: the arm's reach (m), for errors in % of it; workspace: where reach targets are
             drawn (world, m). Both are the model's unless given (a test narrows the workspace).
@@ -163,7 +163,7 @@ class RobotSpec:
                 )
         if (self.grasp is None) != (self.grasp_env is None):
             raise RobotSpecError(
-                f"robot {self.model!r}: give the pose task's markers (grasp) and its env id "
+                f"robot {self.model!r}: give the grasp task's markers (grasp) and its env id "
                 "(grasp_env) together"
             )
 
@@ -255,12 +255,12 @@ def reach_env_ids() -> tuple[str, ...]:
 
 
 def grasp_env_ids() -> tuple[str, ...]:
-    """Every robot's pose env id (``PumaGrasp-v0``)."""
+    """Every robot's grasp env id (``PumaGrasp-v0``)."""
     return tuple(spec.grasp_env for spec in ROBOTS.values() if spec.grasp_env is not None)
 
 
 def robot_of_env(env_id: str) -> str:
-    """The registry key of the robot whose reach or pose env is ``env_id``; ValueError naming
+    """The registry key of the robot whose reach or grasp env is ``env_id``; ValueError naming
     the registered ids else."""
     for name, spec in ROBOTS.items():
         if env_id in (spec.reach_env, spec.grasp_env):

@@ -173,7 +173,7 @@ class ArmScene(gym.Env):
 
 def hide_geoms(model: mujoco.MjModel, names: Iterable[str]) -> None:
     """Move the named geoms into HIDDEN_GROUP, which no camera or viewer draws; names the
-    model does not have are skipped (the pose task's object is only in its own scene)."""
+    model does not have are skipped (the grasp task's object is only in its own scene)."""
     for name in sorted(names):
         geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
         if geom >= 0:

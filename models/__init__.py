@@ -64,7 +64,7 @@ def load_model(name: str, scene: bool = True, scene_file: str = "scene.xml") -> 
     """Compile the scene (or the robot alone) of robot ``name``.
 
     Args:
-        scene_file: which scene of the robot's folder (``scene_grasp.xml``: the pose task's).
+        scene_file: which scene of the robot's folder (``scene_grasp.xml``: the grasp task's).
     """
     import mujoco
 

@@ -1,4 +1,4 @@
-"""Error against training trials per leaf of the hierarchical map on the idealised pose task.
+"""Error against training trials per leaf of the hierarchical map on the idealised grasp task.
 
 The program is :mod:`envs.cli.grasp_learning` (also installed as a console script).
 """

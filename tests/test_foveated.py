@@ -202,7 +202,7 @@ def test_a_sphere_is_sensed_at_the_same_pixels_wherever_its_window_was_placed(ri
 
 
 def test_several_markers_sensed_together_as_one_by_one():
-    """FoveatedSensing.sense_many (the pose task's three markers, whole images rendered once
+    """FoveatedSensing.sense_many (the grasp task's three markers, whole images rendered once
     for all that need them) gives bit for bit what sense gives marker by marker (each with its
     own whole images), with no more renderings and fewer where whole images are needed."""
     from envs.grasp import GraspEnv

@@ -393,9 +393,9 @@ def test_docstring_pins_every_argument_default():
     assert gym.spec("PumaGrasp-v0").max_episode_steps == steps
 
 
-# -- PumaReach beside the pose task ---------------------------------------------------------
+# -- PumaReach beside the grasp task ---------------------------------------------------------
 
-#: The reach settings that share the pose task's machinery, and how far their sensed pixels may be
+#: The reach settings that share the grasp task's machinery, and how far their sensed pixels may be
 #: from the exact projection: rendered sensing's worst sighting (tests/test_stereo.py).
 REACH_SETTINGS = [(6, "project", "servo"), (6, "render", "kinematic"), (3, "foveated", "servo")]
 PIXEL_TOL = {"project": 1e-9, "render": 1.5, "foveated": 1.5}  # px
@@ -405,7 +405,7 @@ FK_TOL = 1e-6  # m
 
 @pytest.mark.parametrize(("joints", "sensing", "control"), REACH_SETTINGS)
 def test_puma_reach_senses_and_rewards_what_its_arm_does(joints, sensing, control):
-    """PumaReach-v0 beside the pose task, against references computed in this run: the DH
+    """PumaReach-v0 beside the grasp task, against references computed in this run: the DH
     forward kinematics of the joints the arm reached (the commanded ones, when kinematic), the
     exact projection of the effector and target, and the reward contract."""
     env = gym.make("PumaReach-v0", joints=joints, sensing=sensing, control=control)

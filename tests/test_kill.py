@@ -1,4 +1,4 @@
-"""Kill test: real ``scripts/train.py`` processes (on the reach envs and on the pose env
+"""Kill test: real ``scripts/train.py`` processes (on the reach envs and on the grasp env
 ``PumaGrasp-v0``) get SIGINT, SIGTERM and SIGKILL at random moments, are resumed each time, and
 must end with the checkpoint (map arrays, generator states, simulation state) and metrics.jsonl
 of an unbroken run, exactly.

@@ -229,7 +229,7 @@ def test_unknown_model_lists_the_available_ones(call):
 # --------------------------------------------------------------------------- stepping
 
 
-#: Every scene file of every robot (``scene.xml``, and the pose task's ``scene_grasp.xml``).
+#: Every scene file of every robot (``scene.xml``, and the grasp task's ``scene_grasp.xml``).
 SCENES = sorted((p.parent.name, p.name) for p in models.MODELS_DIR.glob("*/scene*.xml"))
 
 

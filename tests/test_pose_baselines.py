@@ -1,4 +1,4 @@
-"""The pose task's floors through the idealised cameras: exact pose IK and damped least squares,
+"""The grasp task's floors through the idealised cameras: exact pose IK and damped least squares,
 measured against the oracle's exact poses."""
 
 from __future__ import annotations

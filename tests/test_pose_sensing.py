@@ -1,4 +1,4 @@
-"""Pose sensing of the pose task (``PumaGrasp-v0``): the three markers of the object and of the
+"""Pose sensing of the grasp task (``PumaGrasp-v0``): the three markers of the object and of the
 hand, each sensed like the reach task's one marker, triangulated and fitted to the known marker
 frame, against the ground truth (the exact projection of ``models.puma560.grasp.marker_points``
 and the MuJoCo poses), and how the error behaves as a marker is hidden.

@@ -165,7 +165,7 @@ def visible_share(model, data, eye: np.ndarray, geom_id: int) -> float:
 def scene(request):
     model = models.load_model(request.param)
     grasp = ROBOTS[request.param].grasp
-    if grasp is not None:  # the pose task's gripper and markers, hidden as the reach envs do
+    if grasp is not None:  # the grasp task's gripper and markers, hidden as the reach envs do
         hide_geoms(model, grasp.geoms)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)

@@ -1,6 +1,6 @@
 """Held out means held out: the evaluation stream never meets training's, for any pair of seeds.
 
-The sets are drawn through the envs themselves (the reach targets, the pose task's objects),
+The sets are drawn through the envs themselves (the reach targets, the grasp task's objects),
 the way training runs and ``evaluate.py`` draw them, and compared point by point.
 """
 
@@ -19,7 +19,7 @@ TARGETS = 40
 
 
 def _targets(env: gym.Env, n: int) -> np.ndarray:
-    """The next ``n`` targets (n, 3) m the env draws (the pose env: the object's frame and
+    """The next ``n`` targets (n, 3) m the env draws (the grasp env: the object's frame and
     orientation, (n, 12))."""
     out = []
     for _ in range(n):

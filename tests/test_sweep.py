@@ -2,7 +2,7 @@
 (the cell lock); on a local Ray instance, a 2-cell sweep gives the same table as running the
 cells directly, finished cells are skipped, and a worker killed mid-cell (SIGKILL) is retried
 and resumes to the result of an unbroken sweep; ``--address`` runs the same sweep on a Ray head
-started by ``ray start`` in its own process. On the pose task (robot=grasp): the grid's lattices
+started by ``ray start`` in its own process. On the grasp task (robot=grasp): the grid's lattices
 and leaves, the one-line refusals, and a small sweep whose rows and figure agree with an
 evaluation of each cell's saved map."""
 
@@ -109,7 +109,7 @@ def test_pose_cells_take_the_pose_maps_lattices_and_count_leaves_as_neurons():
 
 
 def test_bad_pose_grids_are_refused_in_one_line_before_anything_runs(tmp_path):
-    with pytest.raises(ValueError, match="orientation_lattice is an axis of the pose task only"):
+    with pytest.raises(ValueError, match="orientation_lattice is an axis of the grasp task only"):
         expand({"robot": ["puma", "grasp"], "orientation_lattice": 2})
     with pytest.raises(ValueError, match="rule=local-fit is an option of the reach map"):
         expand({"robot": "grasp", "rule": ["mrs", "local-fit"]})
@@ -305,14 +305,14 @@ def test_address_runs_the_sweep_on_a_ray_head_of_its_own(unbroken, tmp_path):
             shutil.rmtree(temp, ignore_errors=True)
 
 
-# ----------------------------------------------------------------------------- the pose task
-#: Two tiny pose cells: 8 and 16 leaves, trials raised to 2 per leaf where above 20.
+# ----------------------------------------------------------------------------- the grasp task
+#: Two tiny grasp cells: 8 and 16 leaves, trials raised to 2 per leaf where above 20.
 POSE_GRID = {"robot": "grasp", "lattice": 2, "orientation_lattice": [1, "2x1x1"], "trials": 20,
              "trials_per_neuron": 2, "eval_trials": 12, "eval_every": 1000}  # fmt: skip
 
 
 def test_pose_sweep_rows_equal_an_evaluation_of_each_cells_saved_map(ray_local, tmp_path):
-    """scripts/sweep.py on the pose task, end to end on Ray: each row's position and
+    """scripts/sweep.py on the grasp task, end to end on Ray: each row's position and
     orientation errors after every move equal those of the cell's saved map (som.npz loaded as
     a HierarchicalSOM) evaluated afresh on the same held-out env seed, its neurons are the
     leaves, and the figure's orientation panels draw the rows' mean orientation errors."""

@@ -103,7 +103,7 @@ def _text_type(parse: Callable[[str], T], name: str) -> Callable[[str], T]:
 image_size = _text_type(sizes.parse_size, "WIDTHxHEIGHT")
 #: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`).
 lattice = _text_type(sizes.parse_lattice, "lattice")
-#: ``--orientations yaw:90,tilt:45`` or ``ball:30``: the pose task's range, as its spelling
+#: ``--orientations yaw:90,tilt:45`` or ``ball:30``: the grasp task's range, as its spelling
 #: (:meth:`models.puma560.grasp.OrientationRange.parse`).
 orientation_range = _text_type(
     lambda text: OrientationRange.parse(text).spec(), "yaw:DEG,tilt:DEG or ball:DEG"

@@ -13,10 +13,10 @@ from learners.baselines.random_controller import RandomController
 
 #: The controllers that need no file.
 NAMED = ("random", "analytic", "jacobian", "exact-servo")
-#: The floors of the pose envs (PumaGrasp-v0), through the same cameras.
+#: The floors of the grasp envs (PumaGrasp-v0), through the same cameras.
 POSE_NAMED = ("pose_ik", "pose_jacobian")
 SPECS = f"{' | '.join(NAMED)} | PATH.npz (a saved VisuomotorSOM) | RUN (a train.py run folder)"
-#: The specs of the pose envs.
+#: The specs of the grasp envs.
 POSE_SPECS = f"{' | '.join(POSE_NAMED)} | PATH.npz (a saved HierarchicalSOM) | RUN"
 
 
@@ -96,7 +96,7 @@ def make_controller(spec: str, env, seed: int = 0) -> Controller:
     if spec.endswith(".npz"):
         from envs.harness.checkpoint import check_map_fits, load_map
 
-        som = load_map(Path(spec))  # a VisuomotorSOM, or a HierarchicalSOM of a pose env
+        som = load_map(Path(spec))  # a VisuomotorSOM, or a HierarchicalSOM of a grasp env
         check_map_fits(spec, som, env)  # a map of another robot or image size is refused
         return som
     raise ValueError(f"unknown controller {spec!r}; valid: {SPECS}")
@@ -104,14 +104,14 @@ def make_controller(spec: str, env, seed: int = 0) -> Controller:
 
 def check_task(specs: list[str], pose: bool) -> None:
     """Exit with one line if a named controller of ``specs`` belongs to the other task (the
-    pose floors on a reach env, the reach baselines on a pose env)."""
+    pose floors on a reach env, the reach baselines on a grasp env)."""
     from envs.cli.common import fail
 
     for spec in specs:
         if pose and spec in NAMED:
             fail(f"{spec} is a reach controller; on PumaGrasp-v0 use {POSE_SPECS}")
         if not pose and spec in POSE_NAMED:
-            fail(f"{spec} needs the pose env PumaGrasp-v0; on a reach env use {SPECS}")
+            fail(f"{spec} needs the grasp env PumaGrasp-v0; on a reach env use {SPECS}")
 
 
 def make_pose_floor(spec: str, env) -> Controller:
@@ -123,7 +123,7 @@ def make_pose_floor(spec: str, env) -> Controller:
 
     base = env.unwrapped
     if not isinstance(base, GraspEnv):
-        raise ValueError(f"{spec} needs a pose env (PumaGrasp-v0); for a reach env use {SPECS}")
+        raise ValueError(f"{spec} needs a grasp env (PumaGrasp-v0); for a reach env use {SPECS}")
     floor = PoseIK if spec == "pose_ik" else PoseJacobianIK
     box = {"lower": base.action_lower, "upper": base.action_upper}  # the commands it may send
     return floor(base.nominal_stereo.triangulate, BASE_POS, **box)

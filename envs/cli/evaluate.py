@@ -3,7 +3,7 @@
     .venv/bin/python scripts/evaluate.py --run runs/riacs          # the trained SOM of a run
     .venv/bin/python scripts/evaluate.py --run runs/riacs --compare analytic jacobian
     .venv/bin/python scripts/evaluate.py --env PumaReach-v0 --controller analytic
-    .venv/bin/python scripts/evaluate.py --run runs/grasp --compare pose_ik   # the pose task
+    .venv/bin/python scripts/evaluate.py --run runs/grasp --compare pose_ik   # the grasp task
 
 On PumaGrasp-v0 the table gives, after every move, the position error (mm and % of the robot's
 reach) and the orientation error (degrees); the floor is the exact pose IK (pose_ik) through

@@ -1,4 +1,4 @@
-"""Error against training trials per leaf of the hierarchical map on the idealised pose task.
+"""Error against training trials per leaf of the hierarchical map on the idealised grasp task.
 
     .venv/bin/python scripts/grasp_learning.py --out docs/assets/grasp_learning.png
 
@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> Path:
     )
     floor = rows[-1]
     title = (
-        f"HierarchicalSOM {lattice} on the idealised pose task (project, kinematic), seed "
+        f"HierarchicalSOM {lattice} on the idealised grasp task (project, kinematic), seed "
         f"{args.seed}, {args.targets} held-out targets\nexact pose IK floor at most "
         f"{floor.position_pct.max():.0e} % and {floor.orientation_deg.max():.0e}°"
     )

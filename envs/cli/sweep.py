@@ -7,7 +7,7 @@
     .venv/bin/python scripts/sweep.py --grid robot=grasp --grid lattice=3,4,6 \\
         --grid orientation_lattice=1,2 --grid trials_per_neuron=2 --out runs/grasp-sweep   # pose
 
-Axes: robot (riacs, puma, or grasp for the pose task PumaGrasp-v0; or env) and every training
+Axes: robot (riacs, puma, or grasp for the grasp task PumaGrasp-v0; or env) and every training
 setting of scripts/train.py (lattice as 12x7x4 or n for n×n×n, rule, refine, sensing, control,
 image_size as 640x480, trials, seed, ...), plus trials_per_neuron k (trials at least k·N).
 On grasp, lattice is the hierarchical map's position lattice (default 8x8x6) and

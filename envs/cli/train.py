@@ -40,7 +40,7 @@ from learners.som.config import RULES
 from learners.som.hierarchical_config import HierarchicalConfig
 from models.puma560.grasp import WIDE
 
-_POSE_MAP = HierarchicalConfig()
+_GRASP_MAP = HierarchicalConfig()
 
 #: The progress bar's label while training, and while the map is evaluated on held-out targets
 #: (before the first trial, and every --eval-every trials), which the bar does not count.
@@ -92,13 +92,13 @@ def main(argv: list[str] | None = None) -> Path:
     p.add_argument("--force", action="store_true", help="start over in a folder holding a run")
     args = p.parse_args(argv)
     cli.check_image_size(args.env, args.image_size)
-    pose_env = args.env in GRASP_ENV_IDS
+    grasp_env = args.env in GRASP_ENV_IDS
     for flag in ("orientation_lattice", "orientations", "training_pairs"):
-        if getattr(args, flag) is not None and not pose_env and not args.resume:
+        if getattr(args, flag) is not None and not grasp_env and not args.resume:
             name = "--" + flag.replace("_", "-")
             cli.fail(f"{name} is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
     if args.lattice is None:
-        args.lattice = _POSE_MAP.position_lattice if pose_env else d.lattice
+        args.lattice = _GRASP_MAP.position_lattice if grasp_env else d.lattice
 
     with SignalStop() as stop:
         if args.resume:
@@ -119,9 +119,9 @@ def main(argv: list[str] | None = None) -> Path:
                 protocol=args.protocol, width=args.image_size[0], height=args.image_size[1],
                 sensing_noise=args.sensing_noise,
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
-                orientation_lattice=args.orientation_lattice if pose_env else None,
-                orientations=args.orientations if pose_env else None,
-                training_pairs=args.training_pairs if pose_env else None,
+                orientation_lattice=args.orientation_lattice if grasp_env else None,
+                orientations=args.orientations if grasp_env else None,
+                training_pairs=args.training_pairs if grasp_env else None,
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)
         try:
@@ -137,10 +137,10 @@ def main(argv: list[str] | None = None) -> Path:
 # pose map's config) once the configs' fields carry the CLI metadata ("help", "choices", "run").
 def add_map_options(p: argparse.ArgumentParser, d: RunConfig) -> None:
     """The reach map's and the pose map's options (flags as given since the first releases)."""
-    reach, pose = sizes.format_lattice(d.lattice), sizes.format_lattice(_POSE_MAP.position_lattice)
+    reach, pose = sizes.format_lattice(d.lattice), sizes.format_lattice(_GRASP_MAP.position_lattice)
     options.LATTICE.add(p, help=f"lattice shape (default {reach}; PumaGrasp-v0: the position "
                         f"lattice, default {pose})")  # fmt: skip
-    nested = sizes.format_lattice(_POSE_MAP.orientation_lattice)
+    nested = sizes.format_lattice(_GRASP_MAP.orientation_lattice)
     p.add_argument("--orientation-lattice", type=cli.lattice,
                    help=f"PumaGrasp-v0: the lattice nested at every position node (default "
                    f"{nested})")  # fmt: skip
@@ -160,7 +160,7 @@ def add_map_options(p: argparse.ArgumentParser, d: RunConfig) -> None:
 
 
 def pose_checked(**settings: object) -> RunConfig:
-    """``RunConfig(**settings)``; on a pose env a reach-map option is a one-line user error."""
+    """``RunConfig(**settings)``; on a grasp env a reach-map option is a one-line user error."""
     try:
         return RunConfig(**settings)
     except ValueError as exc:

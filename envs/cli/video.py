@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> Path:
     runs = []  # (env, controller, film) per controller; the same seed gives the same targets
     pose = args.env in GRASP_ENV_IDS
     for spec in specs:
-        if pose:  # the pose env draws its own views
+        if pose:  # the grasp env draws its own views
             env = gym.make(args.env, sensing=args.sensing, control=args.control,
                            render_mode="rgb_array")  # fmt: skip
         else:

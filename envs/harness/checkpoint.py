@@ -3,7 +3,7 @@ the run stands, the env's full simulation state and random generator, and how ma
 belong to it, and that says which robot, joints, sensing, image size and lattice it is for.
 
 The unit is a map file (a :class:`~learners.som.controller.VisuomotorSOM` on the reach envs, a
-:class:`~learners.som.hierarchical.HierarchicalSOM` on the pose envs) with two more entries
+:class:`~learners.som.hierarchical.HierarchicalSOM` on the grasp envs) with two more entries
 (``run``: JSON, ``sim_state``: the MuJoCo integration state), so the map's own ``load(unit)``
 reads it, and :func:`load_map` reads either kind.
 """
@@ -153,7 +153,7 @@ def check_map_fits(path: str | os.PathLike, som: Map, env: Any) -> None:
 
     A unit names its robot, joints and image size; a plain map file is checked by its joint
     ranges, which differ between robots and joint sets. Sensing may differ (both give pixels).
-    A pose env (12 goal pixels) needs the hierarchical map, a reach env the reach map.
+    A grasp env (12 goal pixels) needs the hierarchical map, a reach env the reach map.
     """
     base = env.unwrapped
     pose = isinstance(base, GraspEnv)

@@ -5,7 +5,7 @@ see), unless the controller recovers (``Controller.recover``; its extra moves ar
 error after every later move of a stopped trial is the error where it stopped: those values are
 carried forward, and every mean, median and percentile counts all trials. A trial whose
 target was not seen makes no move and keeps the error of its start pose.
-On a pose env (which reports ``info["orientation_error"]``) the hand's orientation errors are
+On a grasp env (which reports ``info["orientation_error"]``) the hand's orientation errors are
 carried forward the same way.
 """
 
@@ -23,7 +23,7 @@ from learners.base import Controller
 #: The high percentile reported beside mean and median.
 PERCENTILE = 95.0
 MM_PER_M = 1e3
-#: The pose task's tail: a trial ends off when over either bound (m, rad: 1 mm or 1°).
+#: The grasp task's tail: a trial ends off when over either bound (m, rad: 1 mm or 1°).
 TAIL_BOUNDS = (1e-3, float(np.radians(1.0)))
 
 
@@ -42,7 +42,7 @@ class Evaluation:
     #: (n,) int, recovery moves of each trial; None: the controller did not recover (the
     #: summary then has no recovery entries)
     recovery_moves: np.ndarray | None = None
-    orientation_errors: np.ndarray | None = None  # (n, moves) rad; pose envs only
+    orientation_errors: np.ndarray | None = None  # (n, moves) rad; grasp envs only
 
     def __post_init__(self) -> None:
         if self.moves_made is None:
@@ -59,7 +59,7 @@ class Evaluation:
 
     def summary(self) -> dict[str, object]:
         """Per move, over all trials: mean, median and 95th percentile in mm, mean in % of reach,
-        mean, median and 95th percentile in px; on a pose env also mean, median and 95th
+        mean, median and 95th percentile in px; on a grasp env also mean, median and 95th
         percentile of the orientation error in degrees, the largest position (mm) and
         orientation (°) errors and the share of trials over 1 mm or 1° (``TAIL_BOUNDS``); the
         fraction of trials that made each

@@ -1,4 +1,4 @@
-"""Films of the pose task: the PUMA's hand brought onto objects.
+"""Films of the grasp task: the PUMA's hand brought onto objects.
 
 :class:`GraspFilm` films any controller's trials (``scripts/video.py --env PumaGrasp-v0``).
 
@@ -63,7 +63,7 @@ def grasp_frames(
 
 
 class GraspFilm:
-    """Films trials of a controller on a pose env, with the interface of
+    """Films trials of a controller on a grasp env, with the interface of
     :class:`envs.harness.film.TrialFilm` (so :func:`~envs.harness.film.side_by_side` stacks
     two of them): the env's own three views (``render_mode="rgb_array"``: the object's markers
     crosshaired, the hand's detected markers circled), a frame every ``speed / fps`` s of a

@@ -58,7 +58,7 @@ RUNNING_WEIGHT = 0.02
 #: the map's ``t_max`` is the run's ``trials``.
 MAP_OPTIONS = ("lattice", "rule", "protocol", "refine", "abar", "sensing_noise")
 _MAP = SOMConfig()
-#: The reach map's options that the pose envs' hierarchical map does not have: a pose run
+#: The reach map's options that the grasp envs' hierarchical map does not have: a grasp run
 #: leaves them at their defaults.
 REACH_ONLY = ("rule", "protocol", "abar", "sensing_noise")
 #: RunConfig fields added after runs and sweep cells were named: left out of a stored or hashed
@@ -69,11 +69,11 @@ ADDED_LATER = {
     "orientations": None,
     "training_pairs": None,
 }
-#: The objects' orientations of a pose run stored before runs recorded them (the 30° ball) ...
+#: The objects' orientations of a grasp run stored before runs recorded them (the 30° ball) ...
 FIRST_ORIENTATIONS = NARROW.spec()
 #: ... and its training pairs (one: the coarse and one fine move, learned once).
 FIRST_TRAINING_PAIRS = 1
-#: A pose run's training trial: a coarse and this many exploratory fine moves, each pair of
+#: A grasp run's training trial: a coarse and this many exploratory fine moves, each pair of
 #: consecutive moves learned: 4 of 1-4 on validation objects (envs/studies/pose_tail.py, both
 #: orientation ranges, seeds 0-2: the means and the share over 1 mm or 1° fell most at the
 #: same trials; docs/decisions.md). The grasp study's table keeps 1, its published figure's.
@@ -81,7 +81,7 @@ TRAINING_PAIRS = 4
 
 
 def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int]:
-    """:func:`envs.sizes.check_image_size` against the cameras of the registered reach or pose env
+    """:func:`envs.sizes.check_image_size` against the cameras of the registered reach or grasp env
     ``env_id`` (ImageSizeError unless (width, height) px suits them)."""
     return check_image_size(width, height, ROBOTS[robot_of_env(env_id)].image_aspect)
 
@@ -91,7 +91,7 @@ class RunConfig:
     """Everything that defines a training run (stored in the checkpoint).
 
     On a reach env the run trains a :class:`~learners.som.controller.VisuomotorSOM` of shape
-    ``lattice``; on a pose env (``PumaGrasp-v0``) a
+    ``lattice``; on a grasp env (``PumaGrasp-v0``) a
     :class:`~learners.som.hierarchical.HierarchicalSOM` whose position lattice is ``lattice``
     and whose nested lattice is ``orientation_lattice`` (None: the map's default), with
     ``refine`` as its option of that name.
@@ -114,11 +114,11 @@ class RunConfig:
     sensing_noise: float = _MAP.sensing_noise  # px; the Widrow-Hoff step's noise correction
     width: int = IMAGE_WIDTH  # sensing images, px
     height: int = IMAGE_HEIGHT  # px
-    orientation_lattice: tuple[int, ...] | None = None  # pose envs only
-    #: pose envs only: the objects' orientation range (``OrientationRange.parse``; None: the
+    orientation_lattice: tuple[int, ...] | None = None  # grasp envs only
+    #: grasp envs only: the objects' orientation range (``OrientationRange.parse``; None: the
     #: env's default, stored by its spelling)
     orientations: str | None = None
-    #: pose envs only: fine moves of a training trial, each learned after the one before it
+    #: grasp envs only: fine moves of a training trial, each learned after the one before it
     #: (``learn_from(..., pairs)``; None: TRAINING_PAIRS)
     training_pairs: int | None = None
 
@@ -143,7 +143,7 @@ class RunConfig:
                 raise ValueError(f"{name} is {value!r}; it takes an integer >= {low}")
         if not isinstance(self.keep_arm, bool):
             raise ValueError(f"keep_arm is {self.keep_arm!r}, not true or false")
-        if self.pose:
+        if self.grasp:
             changed = [k for k in REACH_ONLY if getattr(self, k) != getattr(_MAP, k)]
             if changed:
                 raise ValueError(
@@ -160,14 +160,14 @@ class RunConfig:
             for name in ("orientation_lattice", "orientations", "training_pairs"):
                 if getattr(self, name) is not None:
                     raise ValueError(
-                        f"{name} is for the pose envs ({', '.join(GRASP_ENV_IDS)}), not "
+                        f"{name} is for the grasp envs ({', '.join(GRASP_ENV_IDS)}), not "
                         f"{self.env}; leave it out"
                     )
         self.map_config()  # the map's options, checked by SOMConfig or HierarchicalConfig
 
     @property
-    def pose(self) -> bool:
-        """The run is on a pose env (the hierarchical map)."""
+    def grasp(self) -> bool:
+        """The run is on a grasp env (the hierarchical map)."""
         return self.env in GRASP_ENV_IDS
 
     @classmethod
@@ -191,7 +191,7 @@ class RunConfig:
 
     def map_config(self) -> SOMConfig | HierarchicalConfig:
         """The options of the run's map (ValueError naming a bad one)."""
-        if self.pose:
+        if self.grasp:
             nested = self.orientation_lattice or HierarchicalConfig().orientation_lattice
             return HierarchicalConfig.of(
                 position_lattice=self.lattice,
@@ -206,7 +206,7 @@ class RunConfig:
         """The run's env, drawing its targets from ``stream`` of the run's seed
         (:mod:`envs.harness.streams`): the training targets, or the held-out ``"evaluation"``
         ones that training never draws."""
-        pose = {"orientations": self.orientations} if self.pose else {}
+        pose = {"orientations": self.orientations} if self.grasp else {}
         env = gym.make(
             self.env,
             sensing=self.sensing,
@@ -222,8 +222,8 @@ class RunConfig:
         return env
 
 
-def initial_pose_map(config: RunConfig, env: gym.Env) -> HierarchicalSOM:
-    """A fresh hierarchical map for a pose env from what a robot knows: the joint ranges, the
+def initial_grasp_map(config: RunConfig, env: gym.Env) -> HierarchicalSOM:
+    """A fresh hierarchical map for a grasp env from what a robot knows: the joint ranges, the
     taught pose (keyframe ``ready``) at every leaf, and the image size (the map spreads its
     position nodes over the image), as the grasp-learning study builds it."""
     base = env.unwrapped
@@ -306,7 +306,7 @@ class Trainer:
         self.config, self.folder, self.out = config, folder, folder.path
         self.env = config.make_env()
         self.som: Map = (
-            initial_pose_map(config, self.env) if config.pose else initial_map(config, self.env)
+            initial_grasp_map(config, self.env) if config.grasp else initial_map(config, self.env)
         )
         self.trial, self.metrics_rows, self.pending_eval = 0, 0, False
         self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}

@@ -40,9 +40,9 @@ class Trial:
     start_pixel_error: float = float("nan")  # px, before the coarse move
     start_pos: np.ndarray | None = None  # (3,) world m, the sensed point before the coarse move
     recovery_moves: int = 0  # extra moves made to see the marker again (controller.recover)
-    #: rad, ground truth after move k, when the env reports the hand's orientation (pose envs)
+    #: rad, ground truth after move k, when the env reports the hand's orientation (grasp envs)
     orientation_errors: list[float] = field(default_factory=list)
-    start_orientation_error: float = float("nan")  # rad, before the coarse move (pose envs)
+    start_orientation_error: float = float("nan")  # rad, before the coarse move (grasp envs)
 
     @property
     def target_visible(self) -> bool:

@@ -32,7 +32,7 @@ class MarkerColour:
     hue_ranges: tuple[tuple[int, int], ...]
     min_saturation: int = 120
     min_value: int = 40
-    #: Sensed in images of the whole scene, the target and the robot together (the pose task),
+    #: Sensed in images of the whole scene, the target and the robot together (the grasp task),
     #: instead of the target with the robot out of view and the arm's markers without the
     #: target (the reach task, whose marker and target coincide at the goal).
     together: bool = False
@@ -49,12 +49,12 @@ class MarkerColour:
 
 
 RED_HUES, GREEN_HUES, BLUE_HUES = ((0, 8), (172, 179)), ((45, 75),), ((105, 135),)
-#: The hand's colours of the pose task (rgba 0.9/0.1 mixtures: hue 30, 90 and 150), between
+#: The hand's colours of the grasp task (rgba 0.9/0.1 mixtures: hue 30, 90 and 150), between
 #: the object's windows.
 YELLOW_HUES, CYAN_HUES, MAGENTA_HUES = ((22, 38),), ((82, 98),), ((142, 158),)
 RED_TARGET = MarkerColour("target", True, RED_HUES)
 GREEN_EFFECTOR = MarkerColour("effector", False, GREEN_HUES, min_value=10)
-#: The pose task's markers: the object's red, green and blue
+#: The grasp task's markers: the object's red, green and blue
 #: (``models.puma560.grasp.MARKER_COLOURS``), sensed at reset, and the hand's yellow, cyan and
 #: magenta (``HAND_COLOURS``), sensed after every move, all in images of the whole scene. The
 #: floor and the robot are grey (saturation far below ``min_saturation``), the object's handle

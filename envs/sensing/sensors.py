@@ -1,15 +1,15 @@
 """How an env senses its markers, chosen once at construction: one sensor per mode.
 
-A task senses M marker spheres on the target (the reach task: the red target; the pose task:
+A task senses M marker spheres on the target (the reach task: the red target; the grasp task:
 the object's three) and M on the arm (the green marker; the hand's three). Every sensor has the
 same two calls, each giving pixels (4M,) (u_left, v_left, u_right, v_right per marker, in the
 task's marker order), NaN in a camera that did not see a marker, and visible (2M,) bool (per
 marker, per camera: one flag per (u, v) pair of the pixels):
 
 - :meth:`Sensor.sense_target` (the target's markers, at reset: the reach task's with the robot
-  out of view, the pose task's with everything in view),
+  out of view, the grasp task's with everything in view),
 - :meth:`Sensor.sense_effector` (the arm's markers, after a move: the reach task's without the
-  target, the pose task's with the object in view), given where they are expected (the
+  target, the grasp task's with the object in view), given where they are expected (the
   target's sensed pixels: where a reach or a grasp aims).
 
 Which geom groups a rendering draws follows the marker's colour

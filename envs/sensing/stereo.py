@@ -250,7 +250,7 @@ class StereoRig(CameraPair):
         Only the geom groups that a real camera would see for that marker are drawn: the reach
         task's target is sensed with the robot out of view, its effector marker with the robot
         (which may occlude it) but without the target (which it reaches and would otherwise
-        hide); the pose task's markers (``MarkerColour.together``) with everything in view.
+        hide); the grasp task's markers (``MarkerColour.together``) with everything in view.
 
         Without ``radius`` (the target) the centre comes from the blob's pixels
         (:func:`envs.sensing.marker_detection.find_sphere`: a blob cut by the border or not filling
@@ -351,7 +351,7 @@ class StereoRig(CameraPair):
     ) -> tuple[list[View], list[tuple[np.ndarray, np.ndarray]]]:
         """The views and their (RGB, depth) images, drawing the marker's geom groups."""
         groups: tuple[int, ...]
-        if marker.together:  # the pose task: the object and the robot in the same images
+        if marker.together:  # the grasp task: the object and the robot in the same images
             groups = (GROUP_TARGET, GROUP_ROBOT, GROUP_MARKER)
         elif marker.is_target:
             groups = (GROUP_TARGET,)

@@ -1,6 +1,6 @@
 """The report of a held-out evaluation (``envs.harness.evaluation``): a map's name in it, the
 reach table (mean error after every move, median and 95th percentile after the last, the
-complete trials), the pose task's table (position and orientation after every move) and the
+complete trials), the grasp task's table (position and orientation after every move) and the
 figures of a map's evaluation. ``scripts/evaluate.py`` prints and writes them.
 """
 
@@ -50,7 +50,7 @@ def format_table(rows: list[dict]) -> str:
 
 
 def format_pose_table(rows: list[dict]) -> str:
-    """The pose task's table, one line per controller and move: mean position error (mm, % of
+    """The grasp task's table, one line per controller and move: mean position error (mm, % of
     reach) and orientation error (°), their medians, the share of trials over 1 mm or 1°, the
     largest errors, over every trial; then each controller's complete trials."""
     head = (

@@ -1,4 +1,4 @@
-"""The hierarchical map on the idealised pose task: error against training trials per leaf.
+"""The hierarchical map on the idealised grasp task: error against training trials per leaf.
 
 Seeded runs through :class:`~envs.studies.grasp_oracle.PoseOracle` (exact projection, joints
 set exactly): for each training budget a fresh :class:`~learners.som.hierarchical.HierarchicalSOM`

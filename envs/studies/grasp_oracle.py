@@ -1,4 +1,4 @@
-"""The idealised pose task: exact marker pixels of the PUMA's hand and of grasp targets.
+"""The idealised grasp task: exact marker pixels of the PUMA's hand and of grasp targets.
 
 What ``PumaGrasp-v0`` gives with ``sensing="project", control="kinematic"``, without MuJoCo in
 the loop: for joints θ (6,) the hand's frame is DH frame 6 of the closed-form kinematics moved
@@ -26,7 +26,7 @@ from models.puma560.grasp import (
 )
 from models.puma560.kinematics import frames
 
-#: The sensing image of the pose task, px (width, height).
+#: The sensing image of the grasp task, px (width, height).
 IMAGE_SIZE = (320, 240)
 
 

@@ -1,4 +1,4 @@
-"""How well the pose task's rendered sensing sees the object's and the hand's poses.
+"""How well the grasp task's rendered sensing sees the object's and the hand's poses.
 
 For each object (validation stream of ``seed``): the object's pose fitted to its markers sensed
 at reset, and the hand's fitted to its markers sensed after a kinematic move onto the exact

@@ -1,4 +1,4 @@
-"""The tail of the hierarchical map's fine moves on the idealised pose task.
+"""The tail of the hierarchical map's fine moves on the idealised grasp task.
 
 After a few fine moves most objects are grasped to a few µm, but a few per cent end millimetres
 or degrees off, near the wrist singularity (joint 5 near 0, where only θ4 + θ6 is defined) and

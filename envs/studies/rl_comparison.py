@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 
 from envs.harness.streams import seed_env
-from envs.harness.training import RunConfig, initial_map, initial_pose_map
+from envs.harness.training import RunConfig, initial_grasp_map, initial_map
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import MAX_EPISODE_STEPS
 
@@ -184,7 +184,7 @@ def train_map(
     env = make_env()
     env.reset(seed=seed)
     config = RunConfig(env=env_id, seed=seed, trials=max(budget // MAP_TRAIN_MOVES, 1))
-    som = initial_pose_map(config, env) if config.pose else initial_map(config, env)
+    som = initial_grasp_map(config, env) if config.grasp else initial_map(config, env)
     curve, steps = Curve("map", seed, episode_steps=episode_steps), 0
     for point in points:
         start = time.perf_counter()

@@ -4,10 +4,10 @@ table.
 
 A grid maps each :class:`~envs.harness.training.RunConfig` field (plus ``robot``, the short name
 of ``env`` in the robot registry, :func:`envs.robots.sweep_names`: "riacs", "puma" or "grasp"
-for the pose task PumaGrasp-v0) to one value or a list of
+for the grasp task PumaGrasp-v0) to one value or a list of
 values; the cells are all combinations. ``lattice`` and ``orientation_lattice`` values are
 "12x7x4" or one size n for an n×n×n cube; ``image_size`` values are WIDTHxHEIGHT, "640x480" (or
-give ``width`` and ``height``). A pose cell trains the hierarchical map: ``lattice`` is its
+give ``width`` and ``height``). A grasp cell trains the hierarchical map: ``lattice`` is its
 position lattice and ``orientation_lattice`` the one nested at every position node, each the
 map's default (``HierarchicalConfig``) unless the grid gives it; its neurons are the map's leaves
 (position × orientation nodes), which ``trials_per_neuron`` counts too. The reach map's options
@@ -26,7 +26,7 @@ same OUT, or a task Ray retries while the first attempt still runs, waits for it
 finds the cell finished (or resumes it from its checkpoint if the first attempt died).
 
 Results rows count all held-out trials: a trial that stopped because a marker was not seen
-keeps the distance where it stopped in every later column. A pose cell's row also gives the
+keeps the distance where it stopped in every later column. A grasp cell's row also gives the
 hand's orientation error after each move (``mean_deg``, ``median_deg``, ``p90_deg``, degrees),
 counted the same way.
 """
@@ -60,8 +60,8 @@ from envs.sizes import format_lattice, parse_lattice, parse_size
 from learners.persistence import CheckpointError
 from learners.som.hierarchical_config import HierarchicalConfig
 
-#: The pose cells' lattices unless the grid gives them: the hierarchical map's defaults.
-_POSE_MAP = HierarchicalConfig()
+#: The grasp cells' lattices unless the grid gives them: the hierarchical map's defaults.
+_GRASP_MAP = HierarchicalConfig()
 CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
 LOCK_SUFFIX = ".lock"
 #: The axes shown in a cell's folder name (the hash covers everything else).
@@ -138,7 +138,7 @@ def check_task_axes(values: dict[str, list[Any]]) -> None:
     pose = [e for e in envs if e in GRASP_ENV_IDS]
     if reach and "orientation_lattice" in values:
         raise ValueError(
-            f"orientation_lattice is an axis of the pose task only (robot=grasp, "
+            f"orientation_lattice is an axis of the grasp task only (robot=grasp, "
             f"{', '.join(GRASP_ENV_IDS)}), not of {', '.join(reach)}; sweep the reach arms in a "
             "grid of their own"
         )
@@ -147,15 +147,15 @@ def check_task_axes(values: dict[str, list[Any]]) -> None:
         if pose and changed:
             raise ValueError(
                 f"{axis}={changed[0]} is an option of the reach map; {pose[0]} (robot=grasp) "
-                f"trains the hierarchical map: leave {axis} out or sweep the pose task in a grid "
+                f"trains the hierarchical map: leave {axis} out or sweep the grasp task in a grid "
                 "of its own"
             )
 
 
 def neurons(config: RunConfig) -> int:
-    """The neurons N of a cell's map: the lattice's nodes, or on a pose env the hierarchical
+    """The neurons N of a cell's map: the lattice's nodes, or on a grasp env the hierarchical
     map's leaves (position nodes × orientation nodes), each of which learns its own joints."""
-    if config.pose:
+    if config.grasp:
         nested = config.map_config()
         return nested.n_positions * nested.n_orientations
     return math.prod(config.lattice)
@@ -163,11 +163,11 @@ def neurons(config: RunConfig) -> int:
 
 def _config(values: dict[str, Any]) -> RunConfig:
     """The RunConfig of one cell's values (``image_size`` (width, height) sets both fields),
-    its image size checked against the cameras of its env; a pose cell's lattices are the
+    its image size checked against the cameras of its env; a grasp cell's lattices are the
     hierarchical map's defaults unless given (never the reach map's default lattice)."""
     if values.get("env") in GRASP_ENV_IDS:
-        values.setdefault("lattice", _POSE_MAP.position_lattice)
-        values.setdefault("orientation_lattice", _POSE_MAP.orientation_lattice)
+        values.setdefault("lattice", _GRASP_MAP.position_lattice)
+        values.setdefault("orientation_lattice", _GRASP_MAP.orientation_lattice)
     if "image_size" in values:
         values["width"], values["height"] = values.pop("image_size")
     config = RunConfig(**values)  # ValueError for an env that is not a reach env
@@ -266,7 +266,7 @@ def _run_cell(config: RunConfig, folder: Path, checkpoint_every: int) -> dict[st
 
 def orientation_columns(result: Evaluation) -> dict[str, list[float]]:
     """Mean, median and 90th percentile of the hand's orientation error (degrees) after each
-    move over all held-out trials, counted as the distances are; empty off the pose envs."""
+    move over all held-out trials, counted as the distances are; empty off the grasp envs."""
     if result.orientation_errors is None:
         return {}
     degrees = np.degrees(errors_all_counted(result.orientation_errors))  # (n, moves)

@@ -2,7 +2,7 @@
 per group of cells that differ only in lattice and seed (arm, rule, protocol, ...), each with
 its fitted slope, and for reference Brause's e^LA(n) = C·n^b (5.8) and his optimal resolution
 (§6.2: n = 39.6 neurons per axis, Cartesian e^MAX = 0.201 mm with equal resolutions, 0.164 mm
-with the optimal ones, for 1.9 MB), both for the PUMA's reach map. A sweep with pose cells
+with the optimal ones, for 1.9 MB), both for the PUMA's reach map. A sweep with grasp cells
 (PumaGrasp-v0, whose neurons N are the hierarchical map's leaves) adds a second row of panels:
 the hand's orientation error after each move against the leaves."""
 
@@ -75,7 +75,7 @@ def error_vs_neurons_figure(rows: list[dict[str, Any]]) -> Figure:
     """One panel per move: mean error (mm, all held-out trials, mean over seeds) against
     neurons per axis n = N^(1/3), log-log, with fitted slopes, Brause's e^LA(n) (rad, at his
     point P; right axis) for the slope, and his optimal resolution (n, e^MAX in mm); Brause's
-    lines only where reach cells are drawn. With pose cells a second row: their mean orientation
+    lines only where reach cells are drawn. With grasp cells a second row: their mean orientation
     error (degrees) after each move against the leaves N."""
     moves = max(len(row["mean_mm"]) for row in rows)
     pose = [row for row in rows if "mean_deg" in row]
@@ -84,7 +84,7 @@ def error_vs_neurons_figure(rows: list[dict[str, Any]]) -> Figure:
     for move, ax in enumerate(axes[0]):
         _position_panel(ax, rows, move, brause=len(pose) < len(rows))
         if pose:
-            ax.set_xlabel("neurons per axis n = N^(1/3) (pose cells: N = leaves)")
+            ax.set_xlabel("neurons per axis n = N^(1/3) (grasp cells: N = leaves)")
     for move, ax in enumerate(axes[1] if pose else []):
         _orientation_panel(ax, pose, move)
     fig.tight_layout()
@@ -123,7 +123,7 @@ def _position_panel(ax, rows: list[dict[str, Any]], move: int, brause: bool) -> 
 
 
 def _orientation_panel(ax, rows: list[dict[str, Any]], move: int) -> None:
-    """Mean orientation error (degrees) of the pose cells ``rows`` after ``move`` against their
+    """Mean orientation error (degrees) of the grasp cells ``rows`` after ``move`` against their
     leaves N, log-log, one line per group with its fitted slope."""
     for label, fit in fit_by_group(rows, move, "mean_deg", "neurons").items():
         line = ax.loglog(fit["x"], fit["mean"], "o-", ms=4, label=f"{label}: b={fit['slope']:.2f}")

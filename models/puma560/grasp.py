@@ -1,4 +1,4 @@
-"""The PUMA 560's pose task: where the hand must be, and how its pose is seen.
+"""The PUMA 560's grasp task: where the hand must be, and how its pose is seen.
 
 The target object and the hand carry the same frame of three coloured marker spheres, at
 :data:`MARKER_OFFSETS` in their own frames (the hand's frame is DH frame 6, the tool point
@@ -280,7 +280,7 @@ def _joint_box(orientations: OrientationRange) -> tuple[tuple[float, ...], tuple
 
 
 def task_joint_box(orientations: OrientationRange) -> tuple[np.ndarray, np.ndarray]:
-    """The joint box (6,), (6,) rad of the pose task with ``orientations``: the smallest box
+    """The joint box (6,), (6,) rad of the grasp task with ``orientations``: the smallest box
     holding the joints that grasp :data:`TASK_BOX_OBJECTS` objects of the reach workspace and
     the range (inside the joint ranges, as those joints are). Commands inside it keep the hand
     near where objects are: a uniformly random one leaves the hand in both cameras' rendered

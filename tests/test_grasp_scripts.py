@@ -1,4 +1,4 @@
-"""The command-line programs on the pose task, end to end on tiny runs: train, evaluate (the
+"""The command-line programs on the grasp task, end to end on tiny runs: train, evaluate (the
 position and orientation after every move, the exact pose IK floor beside), video, the
 grasp-learning study, and the one-line errors for controllers of the other task."""
 
@@ -90,7 +90,7 @@ def test_video_films_the_hand_moving_onto_the_object(run, tmp_path):
     ("script", "args", "says"),
     [
         ("evaluate", ["--env", "PumaGrasp-v0", "--controller", "analytic"], "reach controller"),
-        ("evaluate", ["--env", "RiacsReach-v0", "--controller", "pose_ik"], "needs the pose env"),
+        ("evaluate", ["--env", "RiacsReach-v0", "--controller", "pose_ik"], "needs the grasp env"),
         ("train", ["--orientation-lattice", "2"], "--orientation-lattice is for PumaGrasp-v0"),
         ("train", ["--env", "PumaGrasp-v0", "--protocol", "brause"], "do not apply"),
     ],

@@ -1,5 +1,5 @@
-"""The pose task in the harness: orientation errors per move carried forward like distances,
-summaries in degrees only for pose envs, and training runs of the hierarchical map that
+"""The grasp task in the harness: orientation errors per move carried forward like distances,
+summaries in degrees only for grasp envs, and training runs of the hierarchical map that
 checkpoint and resume bit for bit."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from envs.harness.training import (
     TRAINING_PAIRS,
     RunConfig,
     Trainer,
-    initial_pose_map,
+    initial_grasp_map,
 )
 from envs.harness.trials import Trial, learn_from
 from envs.studies.grasp_oracle import PoseOracle
@@ -35,7 +35,7 @@ from models.puma560.grasp import READY, orientation_angle
 
 POSE = RunConfig(env="PumaGrasp-v0", trials=60, lattice=(3, 2, 2), orientation_lattice=(2,),
                  eval_every=20, eval_trials=8, fine_moves=2, seed=2)  # fmt: skip
-#: The keys of a reach summary, in order, as before the pose envs (the demo compares them).
+#: The keys of a reach summary, in order, as before the grasp envs (the demo compares them).
 REACH_KEYS = ["trials", "complete_trials", "complete_fraction", "made_fraction", "mean_mm",
               "median_mm", "p95_mm", "mean_percent_reach", "mean_px", "median_px", "p95_px",
               "microseconds_per_query"]  # fmt: skip
@@ -101,14 +101,14 @@ def test_evaluate_reports_the_hands_orientation_error_against_the_closed_form():
 
 
 def test_reach_runs_and_their_sweep_cells_keep_their_names():
-    """The names main gave these cells before the pose envs (their hash covers the config)."""
+    """The names main gave these cells before the grasp envs (their hash covers the config)."""
     assert cell_name(RunConfig()) == "riacs_12x7x4_mrs_mrs_True_project_kinematic_0_55963bc8"
     puma = RunConfig(env="PumaReach-v0", lattice=(4, 3, 2), seed=3)
     assert cell_name(puma) == "puma_4x3x2_mrs_mrs_True_project_kinematic_3_00af8fb5"
 
 
 def test_run_configs_refuse_options_of_the_other_map():
-    with pytest.raises(ValueError, match="orientation_lattice is for the pose envs"):
+    with pytest.raises(ValueError, match="orientation_lattice is for the grasp envs"):
         RunConfig(orientation_lattice=(2, 2))
     with pytest.raises(ValueError, match=r"option\(s\) protocol do not apply"):
         RunConfig(env="PumaGrasp-v0", protocol="brause")
@@ -144,7 +144,7 @@ def test_the_pose_run_trains_the_hierarchical_map_from_the_taught_pose(unbroken)
     # its schedules run over the run's trials; a trial learns unless a marker went unseen
     assert som.config.t_max == POSE.trials and 0.9 * POSE.trials <= som.t <= POSE.trials
     env = POSE.make_env()
-    start = initial_pose_map(POSE, env)
+    start = initial_grasp_map(POSE, env)
     env.close()
     np.testing.assert_array_equal(start.theta, np.broadcast_to(READY, start.theta.shape))
     np.testing.assert_array_equal(start.A, 0.0)
@@ -172,7 +172,7 @@ def test_pose_run_resumes_after_sigint_bit_identically(unbroken, tmp_path):
 
 
 def test_a_map_of_the_other_task_is_refused(unbroken, tmp_path):
-    pose_env = gym.make("PumaGrasp-v0", sensing="project", control="kinematic")
+    grasp_env = gym.make("PumaGrasp-v0", sensing="project", control="kinematic")
     reach_env = gym.make("PumaReach-v0", sensing="project", control="kinematic", joints=6)
     reach_map = VisuomotorSOM(
         reach_env.unwrapped.joint_lower, reach_env.unwrapped.joint_upper, lattice=(2, 2, 2), rng=0
@@ -180,18 +180,18 @@ def test_a_map_of_the_other_task_is_refused(unbroken, tmp_path):
     reach_map.save(tmp_path / "reach.npz")
     try:
         with pytest.raises(CheckpointError, match="needs a HierarchicalSOM"):
-            check_map_fits(tmp_path / "reach.npz", load_map(tmp_path / "reach.npz"), pose_env)
+            check_map_fits(tmp_path / "reach.npz", load_map(tmp_path / "reach.npz"), grasp_env)
         pose_map = load_map(unbroken / MAP_FILE)
         with pytest.raises(CheckpointError, match="needs a VisuomotorSOM"):
             check_map_fits(unbroken / MAP_FILE, pose_map, reach_env)
     finally:
-        pose_env.close()
+        grasp_env.close()
         reach_env.close()
 
 
 def test_a_pose_run_keeps_its_orientation_range_and_old_runs_read_as_the_ball(tmp_path):
     """RunConfig stores the objects' orientation range by its spelling, the env it makes draws
-    from it, and a stored pose run from before the field existed reads as the 30° ball it was
+    from it, and a stored grasp run from before the field existed reads as the 30° ball it was
     trained on; a reach run refuses the field."""
     narrow = RunConfig(env="PumaGrasp-v0", sensing="project", orientations="ball:30.0")
     assert narrow.orientations == "ball:30" and RunConfig.from_stored(narrow.to_stored()) == narrow
@@ -206,9 +206,9 @@ def test_a_pose_run_keeps_its_orientation_range_and_old_runs_read_as_the_ball(tm
     assert old.orientations == "ball:30" and old.training_pairs == 1
     with pytest.raises(ValueError, match=r"training_pairs is 0; it takes an integer in 1\.\.8"):
         RunConfig(env="PumaGrasp-v0", training_pairs=0)
-    with pytest.raises(ValueError, match="training_pairs is for the pose envs"):
+    with pytest.raises(ValueError, match="training_pairs is for the grasp envs"):
         RunConfig(env="PumaReach-v0", training_pairs=2)
-    with pytest.raises(ValueError, match="orientations is for the pose envs"):
+    with pytest.raises(ValueError, match="orientations is for the grasp envs"):
         RunConfig(env="RiacsReach-v0", orientations="ball:30")
     with pytest.raises(ValueError, match="tilt is 95°"):
         RunConfig(env="PumaGrasp-v0", orientations="yaw:10,tilt:95")
