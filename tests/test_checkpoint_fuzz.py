@@ -68,8 +68,8 @@ def same_map(a: VisuomotorSOM, b: VisuomotorSOM) -> bool:
 
 def test_every_damaged_checkpoint_is_refused_or_loads_identically(tmp_path: Path):
     som = trained_map()
-    som.save(tmp_path / "som.npz")
-    blob = (tmp_path / "som.npz").read_bytes()
+    som.save(tmp_path / "checkpoint.npz")
+    blob = (tmp_path / "checkpoint.npz").read_bytes()
     structure = structure_offsets(blob)
     rng = np.random.default_rng(2024)
     refused = identical = 0
@@ -101,9 +101,9 @@ def test_members_save_never_writes_are_refused_by_name(tmp_path, field, value, m
     """The zip directory's compression method and encryption flag, rewritten with valid CRCs:
     formats ``save`` never writes are refused, not handed to a decompressor."""
     som = trained_map()
-    som.save(tmp_path / "som.npz")
+    som.save(tmp_path / "checkpoint.npz")
     with (
-        zipfile.ZipFile(tmp_path / "som.npz") as src,
+        zipfile.ZipFile(tmp_path / "checkpoint.npz") as src,
         zipfile.ZipFile(tmp_path / "bad.npz", "w") as dst,
     ):
         for info in src.infolist():
@@ -172,7 +172,7 @@ def test_a_run_with_crafted_settings_is_refused_by_resume_and_evaluate(
 
     out = tmp_path / "run"
     Trainer(RunConfig(trials=1, lattice=(2, 2, 2), eval_every=1, eval_trials=2), out).close()
-    path = out / "som.npz"
+    path = out / "checkpoint.npz"
     run, sim_state = read_unit(path)
     write_unit(path, VisuomotorSOM.load(path), {**run, "config": {**run["config"], field: value}},
                sim_state)  # fmt: skip

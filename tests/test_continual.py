@@ -102,8 +102,8 @@ def test_the_continual_state_is_saved_and_continues_bit_identically(tmp_path):
         trial(som, target)
     for target in targets(10, 6):
         trial(som, target, CAMERAS_MOVED)
-    som.save(tmp_path / "som.npz")
-    back = VisuomotorSOM.load(tmp_path / "som.npz")
+    som.save(tmp_path / "checkpoint.npz")
+    back = VisuomotorSOM.load(tmp_path / "checkpoint.npz")
     assert back.monitor.params == som.monitor.params
     assert back.monitor.state() == som.monitor.state()
     for target in targets(30, 7):

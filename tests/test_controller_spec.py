@@ -25,7 +25,7 @@ def _video(*args: str, cwd: Path) -> subprocess.CompletedProcess:
         ((), "the following arguments are required: --controller"),
         (("--controller", "runs/none"), "runs/none does not exist; pass a train.py run folder"),
         (("--controller", "nonsense"), "wants random | analytic"),
-        (("--controller", "empty"), "empty is a folder without som.npz"),
+        (("--controller", "empty"), "empty is a folder without checkpoint.npz"),
         (("--controller", "missing.npz"), "missing.npz does not exist"),
     ],
 )
@@ -43,6 +43,6 @@ def test_a_run_folder_stands_for_its_map(tmp_path):
 
     run = tmp_path / "run"
     run.mkdir()
-    save_npz(run / "som.npz", "VisuomotorSOM", 1, {}, {})
-    assert controller_spec(str(run)) == str(run / "som.npz")
+    save_npz(run / "checkpoint.npz", "VisuomotorSOM", 1, {}, {})
+    assert controller_spec(str(run)) == str(run / "checkpoint.npz")
     assert controller_spec("analytic") == "analytic"

@@ -57,16 +57,16 @@ def _log(path: Path, rows: list[dict], tail: bytes = b"") -> Path:
 
 
 def test_run_is_a_folder_or_its_checkpoint(tmp_path):
-    (tmp_path / "som.npz").write_bytes(b"")
+    (tmp_path / "checkpoint.npz").write_bytes(b"")
     (tmp_path / "map.npz").write_bytes(b"")
     (tmp_path / "empty").mkdir()
     assert run_folder(str(tmp_path)) == tmp_path
-    assert run_folder(str(tmp_path / "som.npz")) == tmp_path
+    assert run_folder(str(tmp_path / "checkpoint.npz")) == tmp_path
     wrong = {
         "missing": "does not exist; pass the --out folder of a train.py run",
-        "empty": "holds no som.npz, so no train.py run",
-        "map.npz": "is a file, not a train.py run folder; pass the run's folder (or its som.npz), "
-        "or evaluate this map with --controller",
+        "empty": "holds no checkpoint.npz, so no train.py run",
+        "map.npz": "is a file, not a train.py run folder; pass the run's folder (or its "
+        "checkpoint.npz), or evaluate this map with --controller",
     }
     for name, message in wrong.items():
         with pytest.raises(argparse.ArgumentTypeError, match=re.escape(message)):
@@ -81,8 +81,8 @@ def test_evaluate_without_a_run_says_so_without_resume_and_writes_nothing(tmp_pa
 
 
 def test_a_plain_map_as_run_points_to_controller(trained, tmp_path):
-    plain = tmp_path / "som.npz"
-    VisuomotorSOM.load(trained[0] / "som.npz").save(plain)  # the map alone, no run state
+    plain = tmp_path / "checkpoint.npz"
+    VisuomotorSOM.load(trained[0] / "checkpoint.npz").save(plain)  # the map alone, no run state
     line = _one_line_error(_script("evaluate", "--run", plain, "--out", tmp_path / "e"))
     assert f"evaluate it with --controller {plain}" in line and "resume" not in line
     assert not (tmp_path / "e").exists()
@@ -134,12 +134,12 @@ def test_truncate_metrics_agrees_with_the_reader(tmp_path):
 def test_evaluate_a_run_with_a_torn_log_given_as_its_checkpoint(trained, tmp_path):
     run = tmp_path / "run"
     run.mkdir()
-    for name in ("som.npz", "metrics.jsonl"):
+    for name in ("checkpoint.npz", "metrics.jsonl"):
         (run / name).write_bytes((trained[0] / name).read_bytes())
     with open(run / "metrics.jsonl", "ab") as f:
         f.write(b'{"trial": 30, "learned')  # what a kill leaves
     result = _script(
-        "evaluate", "--run", run / "som.npz", "--targets", "3", "--out", tmp_path / "e"
+        "evaluate", "--run", run / "checkpoint.npz", "--targets", "3", "--out", tmp_path / "e"
     )
     assert result.returncode == 0, result.stderr
     notes = [line for line in result.stderr.splitlines() if line.startswith("note:")]

@@ -33,7 +33,7 @@ def run(tmp_path_factory):
 
 
 def test_train_builds_the_hierarchical_map_with_the_lattices_given(run):
-    som = HierarchicalSOM.load(run / "som.npz")
+    som = HierarchicalSOM.load(run / "checkpoint.npz")
     assert som.config.position_lattice == (3, 2, 2) and som.config.orientation_lattice == (2,)
     rows = [json.loads(r) for r in (run / "metrics.jsonl").read_text().splitlines()]
     assert [r["trial"] for r in rows] == [0, 30, 60] and all("mean_deg" in r for r in rows)

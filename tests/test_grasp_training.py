@@ -13,11 +13,10 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
-from envs.harness.checkpoint import check_map_fits, load_map, read_unit
+from envs.harness.checkpoint import CHECKPOINT_FILE, check_map_fits, load_map, read_unit
 from envs.harness.evaluation import Evaluation, carried_orientation, evaluate
 from envs.harness.stopping import StopRequested
 from envs.harness.training import (
-    MAP_FILE,
     METRICS_FILE,
     TRAINING_PAIRS,
     RunConfig,
@@ -139,7 +138,7 @@ def unbroken(tmp_path_factory):
 
 
 def test_the_pose_run_trains_the_hierarchical_map_from_the_taught_pose(unbroken):
-    som = HierarchicalSOM.load(unbroken / MAP_FILE)
+    som = HierarchicalSOM.load(unbroken / CHECKPOINT_FILE)
     assert som.config.position_lattice == (3, 2, 2) and som.config.orientation_lattice == (2,)
     # its schedules run over the run's trials; a trial learns unless a marker went unseen
     assert som.config.t_max == POSE.trials and 0.9 * POSE.trials <= som.t <= POSE.trials
@@ -162,11 +161,13 @@ def test_pose_run_resumes_after_sigint_bit_identically(unbroken, tmp_path):
 
     with pytest.raises(StopRequested):
         _train(POSE, tmp_path, checkpoint_every=1000, progress=interrupt)
-    assert read_unit(tmp_path / MAP_FILE)[0]["trial"] == 33
+    assert read_unit(tmp_path / CHECKPOINT_FILE)[0]["trial"] == 33
     trainer = Trainer.resume(tmp_path)
     trainer.run(checkpoint_every=1000)
     trainer.close()
-    for a, b in zip(_arrays(unbroken / MAP_FILE), _arrays(tmp_path / MAP_FILE), strict=True):
+    for a, b in zip(
+        _arrays(unbroken / CHECKPOINT_FILE), _arrays(tmp_path / CHECKPOINT_FILE), strict=True
+    ):
         np.testing.assert_array_equal(a, b)
     assert (tmp_path / METRICS_FILE).read_text() == (unbroken / METRICS_FILE).read_text()
 
@@ -181,9 +182,9 @@ def test_a_map_of_the_other_task_is_refused(unbroken, tmp_path):
     try:
         with pytest.raises(CheckpointError, match="needs a HierarchicalSOM"):
             check_map_fits(tmp_path / "reach.npz", load_map(tmp_path / "reach.npz"), grasp_env)
-        pose_map = load_map(unbroken / MAP_FILE)
+        pose_map = load_map(unbroken / CHECKPOINT_FILE)
         with pytest.raises(CheckpointError, match="needs a VisuomotorSOM"):
-            check_map_fits(unbroken / MAP_FILE, pose_map, reach_env)
+            check_map_fits(unbroken / CHECKPOINT_FILE, pose_map, reach_env)
     finally:
         grasp_env.close()
         reach_env.close()

@@ -60,7 +60,7 @@ if os.environ.get("VISUOMOTOR_SOAK_SIGNALS"):
 
 
 def _command(out: Path, options: list[str]) -> list[str]:
-    resume = (out / "som.npz").is_file()  # a run killed before its first save starts afresh
+    resume = (out / "checkpoint.npz").is_file()  # a run killed before its first save starts afresh
     return [sys.executable, str(SCRIPT), *options, *COMMON, "--out", str(out)] + (
         ["--resume"] if resume else []
     )
@@ -71,7 +71,7 @@ def _env() -> dict[str, str]:
 
 
 def _contents(out: Path) -> dict[str, np.ndarray]:
-    with np.load(out / "som.npz") as z:
+    with np.load(out / "checkpoint.npz") as z:
         return {k: z[k] for k in z.files}
 
 
@@ -116,8 +116,8 @@ def _signalled_run(
     starts.mkdir(parents=True, exist_ok=True)
     while True:
         k, start = len(statuses), "fresh"
-        if (out / "som.npz").is_file():
-            shutil.copy(out / "som.npz", starts / f"{k:03d}.npz")
+        if (out / "checkpoint.npz").is_file():
+            shutil.copy(out / "checkpoint.npz", starts / f"{k:03d}.npz")
             with np.load(starts / f"{k:03d}.npz") as z:
                 run = json.loads(str(z["run"]))
             start = f"trial {run['trial']}" + (

@@ -116,19 +116,19 @@ def test_a_save_that_runs_out_of_space_keeps_the_checkpoint(mounts, run, tmp_pat
     and once space is freed ``--resume`` finishes the run."""
     folder = tmp_path / "tight"
     folder.mkdir()
-    before = (run / "som.npz").read_bytes()
+    before = (run / "checkpoint.npz").read_bytes()
     resume = _script("train", "--out", folder / "t", "--resume", "--trials", "40")
     result = _in_private_mounts(
         f"mount -t tmpfs -o size={TMPFS_SIZE} tmpfs {folder} && cp -r {run} {folder}/t && "
         + _fill(folder, 1)
         + f"{resume} --checkpoint-every 1; echo result:$?; "
-        f"cmp {folder}/t/som.npz {run}/som.npz && echo result:same; "
+        f"cmp {folder}/t/checkpoint.npz {run}/checkpoint.npz && echo result:same; "
         f"echo result:$(ls -A {folder}/t); rm {folder}/fill; {resume}; echo result:$?"
     )
     status, same, listing, resumed = _results(result.stdout)
     assert status == "2", result.stderr
-    assert "som.npz: cannot write (No space left on device)" in result.stderr
-    assert same == "same" and (run / "som.npz").read_bytes() == before
-    assert listing == "metrics.jsonl som.npz"  # no lock, no temporary file
+    assert "checkpoint.npz: cannot write (No space left on device)" in result.stderr
+    assert same == "same" and (run / "checkpoint.npz").read_bytes() == before
+    assert listing == "checkpoint.npz metrics.jsonl"  # no lock, no temporary file
     assert resumed == "0", result.stderr
     assert "trained 40 trials" in result.stdout

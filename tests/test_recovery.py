@@ -15,9 +15,10 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401 - registers the reach envs
+from envs.harness.checkpoint import CHECKPOINT_FILE
 from envs.harness.evaluation import evaluate
 from envs.harness.stopping import StopRequested
-from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer, initial_map
+from envs.harness.training import METRICS_FILE, RunConfig, Trainer, initial_map
 from envs.harness.trials import learn_from, run_trial
 from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM, kernels
@@ -213,7 +214,7 @@ def test_realistic_training_resumes_bit_identically(realistic_run, tmp_path):
     with pytest.raises(StopRequested):
         _run(Trainer(REALISTIC, tmp_path), progress=interrupt)
     _run(Trainer.resume(tmp_path))
-    whole, resumed = (VisuomotorSOM.load(d / MAP_FILE) for d in (realistic_run, tmp_path))
+    whole, resumed = (VisuomotorSOM.load(d / CHECKPOINT_FILE) for d in (realistic_run, tmp_path))
     for name in ("w", "theta", "A"):
         np.testing.assert_array_equal(getattr(resumed, name), getattr(whole, name))
     assert (resumed.t, resumed.skipped) == (whole.t, whole.skipped)

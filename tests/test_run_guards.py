@@ -33,9 +33,11 @@ def test_a_second_writer_is_refused_and_the_first_stops_cleanly_on_sigterm(tmp_p
     )  # fmt: skip
     try:
         deadline = time.monotonic() + HANG_TIMEOUT
-        while not (tmp_path / "som.npz").exists():
+        while not (tmp_path / "checkpoint.npz").exists():
             if time.monotonic() > deadline or first.poll() is not None:
-                pytest.fail(f"the first run wrote no som.npz in {HANG_TIMEOUT:.0f} s (or ended)")
+                pytest.fail(
+                    f"the first run wrote no checkpoint.npz in {HANG_TIMEOUT:.0f} s (or ended)"
+                )
             time.sleep(0.05)
         second = run_script("train", "--out", str(tmp_path), "--resume")
         assert f"in use by process {first.pid}" in one_line_error(second)
@@ -68,11 +70,13 @@ def test_resume_names_the_settings_that_may_not_change(puma_run):
 def test_a_foreign_checkpoint_is_refused_by_resume_evaluate_and_video(puma_run, tmp_path):
     riacs = tmp_path / "riacs"
     assert run_script("train", *TINY, "--out", str(riacs)).returncode == 0
-    (riacs / "som.npz").write_bytes((puma_run / "som.npz").read_bytes())  # copied over
+    (riacs / "checkpoint.npz").write_bytes(
+        (puma_run / "checkpoint.npz").read_bytes()
+    )  # copied over
     line = one_line_error(run_script("train", "--out", str(riacs), "--resume", "--env",
                                    "RiacsReach-v0"))  # fmt: skip
     assert "RiacsReach-v0 (the run has PumaReach-v0)" in line
-    unit = str(puma_run / "som.npz")
+    unit = str(puma_run / "checkpoint.npz")
     line = one_line_error(run_script("evaluate", "--controller", unit, "--env", "RiacsReach-v0",
                                    "--targets", "3", "--out", str(tmp_path / "e")))  # fmt: skip
     assert "robot='puma560'" in line and "robot='riacs'" in line

@@ -57,7 +57,7 @@ def run(tmp_path_factory):
 
 
 def test_train_writes_map_state_and_metrics(run):
-    assert (run / "som.npz").is_file() and not (run / "run.lock").exists()
+    assert (run / "checkpoint.npz").is_file() and not (run / "run.lock").exists()
     rows = [json.loads(r) for r in (run / "metrics.jsonl").read_text().splitlines()]
     assert [r["trial"] for r in rows] == [0, 20, 40]
 

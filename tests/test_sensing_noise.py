@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 import envs  # noqa: F401 - registers the reach envs
+from envs.harness.checkpoint import CHECKPOINT_FILE
 from envs.harness.evaluation import evaluate
 from envs.harness.stopping import StopRequested
-from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer, initial_map
+from envs.harness.training import METRICS_FILE, RunConfig, Trainer, initial_map
 from envs.harness.trials import learn_from, run_trial
 from envs.studies.sweep_grid import cell_name
 from learners.som.config import SOMConfig
@@ -143,8 +144,8 @@ def test_a_map_saved_with_it_on_goes_on_bit_identically(kernel, tmp_path):
     whole, first = new(), new()
     train(whole, targets)
     train(first, targets[:70])
-    first.save(tmp_path / "som.npz")
-    second = VisuomotorSOM.load(tmp_path / "som.npz", kernel=kernel)
+    first.save(tmp_path / "checkpoint.npz")
+    second = VisuomotorSOM.load(tmp_path / "checkpoint.npz", kernel=kernel)
     assert second.sensing_noise == 0.1
     train(second, targets[70:])
     for name in ("w", "theta", "A"):
@@ -200,7 +201,7 @@ def test_a_run_with_it_resumes_bit_identically_and_runs_without_it_keep_their_fi
         trainer.run(checkpoint_every=1000)
     finally:
         trainer.close()
-    a, b = (VisuomotorSOM.load(d / MAP_FILE) for d in (whole, part))
+    a, b = (VisuomotorSOM.load(d / CHECKPOINT_FILE) for d in (whole, part))
     assert b.sensing_noise == 0.1
     for name in ("w", "theta", "A"):
         np.testing.assert_array_equal(getattr(b, name), getattr(a, name))

@@ -28,10 +28,11 @@ import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.cli import sweep as sweep_cli
+from envs.harness.checkpoint import CHECKPOINT_FILE
 from envs.harness.evaluation import evaluate
 from envs.harness.run_folder import release_lock, take_lock
 from envs.harness.streams import seed_env
-from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig
+from envs.harness.training import METRICS_FILE, RunConfig
 from envs.studies.sweep_grid import (
     ATTEMPTS_FILE,
     CELL_FILE,
@@ -313,8 +314,8 @@ POSE_GRID = {"robot": "grasp", "lattice": 2, "orientation_lattice": [1, "2x1x1"]
 
 def test_pose_sweep_rows_equal_an_evaluation_of_each_cells_saved_map(ray_local, tmp_path):
     """scripts/sweep.py on the grasp task, end to end on Ray: each row's position and
-    orientation errors after every move equal those of the cell's saved map (som.npz loaded as
-    a HierarchicalSOM) evaluated afresh on the same held-out env seed, its neurons are the
+    orientation errors after every move equal those of the cell's saved map (checkpoint.npz
+    loaded as a HierarchicalSOM) evaluated afresh on the same held-out env seed, its neurons are the
     leaves, and the figure's orientation panels draw the rows' mean orientation errors."""
     grid = [f"--grid={k}={','.join(map(str, v if isinstance(v, list) else [v]))}"
             for k, v in POSE_GRID.items()]  # fmt: skip
@@ -325,7 +326,7 @@ def test_pose_sweep_rows_equal_an_evaluation_of_each_cells_saved_map(ray_local, 
         ("grasp", 8 * 1, 20), ("grasp", 8 * 2, 32)
     ]  # fmt: skip
     for row in rows:
-        som = HierarchicalSOM.load(tmp_path / "cells" / row["cell"] / MAP_FILE)
+        som = HierarchicalSOM.load(tmp_path / "cells" / row["cell"] / CHECKPOINT_FILE)
         assert som.n_leaves == row["neurons"] and som.t == row["learned_trials"]
         env = gym.make("PumaGrasp-v0", sensing=row["sensing"], control=row["control"],
                        width=row["width"], height=row["height"])  # fmt: skip

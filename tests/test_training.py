@@ -12,10 +12,10 @@ import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.harness import training
-from envs.harness.checkpoint import read_unit
+from envs.harness.checkpoint import CHECKPOINT_FILE, OLD_CHECKPOINT_FILE, read_unit
 from envs.harness.run_folder import RunFolderError
 from envs.harness.stopping import StopRequested
-from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
+from envs.harness.training import METRICS_FILE, RunConfig, Trainer
 from learners.persistence import CheckpointError
 from learners.som.controller import VisuomotorSOM
 
@@ -53,13 +53,37 @@ def test_resume_after_sigint_is_bit_identical(uninterrupted, tmp_path):
     with pytest.raises(StopRequested) as stopped:
         _train(SMALL, tmp_path, checkpoint_every=1000, progress=interrupt)
     assert stopped.value.exit_code == 130
-    assert read_unit(tmp_path / MAP_FILE)[0]["trial"] == 27
+    assert read_unit(tmp_path / CHECKPOINT_FILE)[0]["trial"] == 27
     trainer = Trainer.resume(tmp_path)
     trainer.run(checkpoint_every=1000)
     trainer.close()
-    for a, b in zip(_arrays(uninterrupted / MAP_FILE), _arrays(tmp_path / MAP_FILE), strict=True):
+    for a, b in zip(
+        _arrays(uninterrupted / CHECKPOINT_FILE), _arrays(tmp_path / CHECKPOINT_FILE), strict=True
+    ):
         np.testing.assert_array_equal(a, b)
     assert (tmp_path / METRICS_FILE).read_text() == (uninterrupted / METRICS_FILE).read_text()
+
+
+def test_a_run_folder_of_the_old_checkpoint_name_resumes_under_it(uninterrupted, tmp_path):
+    """A run written when the unit was ``som.npz``: resume reads and writes that file (no second
+    checkpoint appears beside it), ends as an unbroken run does, and a fresh run refuses it."""
+
+    def stop(trial, running):
+        if trial == 27:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(StopRequested):
+        _train(SMALL, tmp_path, checkpoint_every=1000, progress=stop)
+    old = tmp_path / OLD_CHECKPOINT_FILE
+    (tmp_path / CHECKPOINT_FILE).rename(old)
+    trainer = Trainer.resume(tmp_path)
+    trainer.run(checkpoint_every=1000)
+    trainer.close()
+    assert not (tmp_path / CHECKPOINT_FILE).exists()
+    for a, b in zip(_arrays(uninterrupted / CHECKPOINT_FILE), _arrays(old), strict=True):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(RunFolderError, match=OLD_CHECKPOINT_FILE):
+        Trainer(SMALL, tmp_path)
 
 
 def test_resume_after_a_crash_redoes_from_the_last_periodic_checkpoint(tmp_path):
@@ -76,7 +100,7 @@ def test_resume_after_a_crash_redoes_from_the_last_periodic_checkpoint(tmp_path)
         _train(config, tmp_path / "crashed", checkpoint_every=20, progress=crash)
     with open(tmp_path / "crashed" / METRICS_FILE, "a") as f:
         f.write('{"trial": 40, "lea')  # a write cut short by a full disk
-    stale = tmp_path / "crashed" / ".som.npz.x1y2.tmp"  # left by a save that was killed
+    stale = tmp_path / "crashed" / ".checkpoint.npz.x1y2.tmp"  # left by a save that was killed
     stale.write_bytes(b"half a checkpoint")
     trainer = Trainer.resume(tmp_path / "crashed")
     assert not stale.exists()
@@ -84,7 +108,9 @@ def test_resume_after_a_crash_redoes_from_the_last_periodic_checkpoint(tmp_path)
     trainer.run(checkpoint_every=20)
     trainer.close()
     for a, b in zip(
-        _arrays(reference / MAP_FILE), _arrays(tmp_path / "crashed" / MAP_FILE), strict=True
+        _arrays(reference / CHECKPOINT_FILE),
+        _arrays(tmp_path / "crashed" / CHECKPOINT_FILE),
+        strict=True,
     ):
         np.testing.assert_array_equal(a, b)
     expected = (reference / METRICS_FILE).read_text()
@@ -107,15 +133,15 @@ def test_metrics_rows_hold_errors_per_move_in_mm_percent_and_pixels(uninterrupte
 def test_same_seed_same_map_and_different_seed_different_map(uninterrupted, tmp_path):
     _train(SMALL, tmp_path / "same", checkpoint_every=1000)
     _train(RunConfig(**{**SMALL.__dict__, "seed": 4}), tmp_path / "other", checkpoint_every=1000)
-    same = _arrays(tmp_path / "same" / MAP_FILE)
-    np.testing.assert_array_equal(same[0], _arrays(uninterrupted / MAP_FILE)[0])
-    assert not np.array_equal(_arrays(tmp_path / "other" / MAP_FILE)[0], same[0])
+    same = _arrays(tmp_path / "same" / CHECKPOINT_FILE)
+    np.testing.assert_array_equal(same[0], _arrays(uninterrupted / CHECKPOINT_FILE)[0])
+    assert not np.array_equal(_arrays(tmp_path / "other" / CHECKPOINT_FILE)[0], same[0])
 
 
 def test_resume_without_checkpoint_or_with_lost_metrics_is_a_clear_error(uninterrupted, tmp_path):
     with pytest.raises(CheckpointError, match="no checkpoint"):
         Trainer.resume(tmp_path)
-    (tmp_path / MAP_FILE).write_bytes((uninterrupted / MAP_FILE).read_bytes())
+    (tmp_path / CHECKPOINT_FILE).write_bytes((uninterrupted / CHECKPOINT_FILE).read_bytes())
     (tmp_path / METRICS_FILE).write_text(
         "".join((uninterrupted / METRICS_FILE).open().readlines()[:2])
     )

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from envs.harness.training import MAP_FILE
+from envs.harness.checkpoint import CHECKPOINT_FILE, OLD_CHECKPOINT_FILE, checkpoint_path
 from learners.base import Controller
 from learners.baselines.random_controller import RandomController
 
@@ -27,12 +27,12 @@ def controller_spec(text: str) -> str:
         return text
     path = Path(text)
     if path.is_dir():
-        if not (path / MAP_FILE).is_file():
+        if not checkpoint_path(path).is_file():
             raise argparse.ArgumentTypeError(
-                f"{text} is a folder without {MAP_FILE}; pass a train.py run folder, a .npz "
+                f"{text} is a folder without {CHECKPOINT_FILE}; pass a train.py run folder, a .npz "
                 f"map or one of {', '.join(NAMED)}"
             )
-        return str(path / MAP_FILE)
+        return str(checkpoint_path(path))
     if path.suffix == ".npz":
         if not path.is_file():
             raise argparse.ArgumentTypeError(f"{text} does not exist; train a map with train.py")
@@ -47,25 +47,25 @@ def controller_spec(text: str) -> str:
 
 def run_folder(text: str) -> Path:
     """argparse type of evaluate's ``--run``: a train.py run folder, or its checkpoint
-    (``RUN/som.npz``) standing for the folder; anything else is a one-line usage error that
+    (``RUN/checkpoint.npz``) standing for the folder; anything else is a one-line usage error that
     says what to pass."""
     path = Path(text)
-    if path.is_file() and path.name == MAP_FILE:
+    if path.is_file() and path.name in (CHECKPOINT_FILE, OLD_CHECKPOINT_FILE):
         return path.parent
     if path.is_file():
         also = f", or evaluate this map with --controller {text}" * (path.suffix == ".npz")
         raise argparse.ArgumentTypeError(
             f"{text} is a file, not a train.py run folder; pass the run's folder (or its "
-            f"{MAP_FILE}){also}"
+            f"{CHECKPOINT_FILE}){also}"
         )
     if not path.exists():
         raise argparse.ArgumentTypeError(
             f"{text} does not exist; pass the --out folder of a train.py run, or train one there "
             "first"
         )
-    if not (path / MAP_FILE).is_file():
+    if not checkpoint_path(path).is_file():
         raise argparse.ArgumentTypeError(
-            f"{text} holds no {MAP_FILE}, so no train.py run; pass the --out folder of a "
+            f"{text} holds no {CHECKPOINT_FILE}, so no train.py run; pass the --out folder of a "
             "finished or stopped run"
         )
     return path

@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> None:
             results[f"{short}_{sensing}_{control}"] = summary["controllers"][0]
     for env_id, short in runs():
         # The map above, the exact IK below, on the same targets, filmed in real time.
-        video.main(["--env", env_id, "--controller", str(args.out / short / "som.npz"),
+        video.main(["--env", env_id, "--controller", str(args.out / short / "checkpoint.npz"),
                     "--compare", "analytic", "--trials", "5",
                     "--out", str(args.out / f"{short}_som.mp4")])  # fmt: skip
     (args.out / "summary.json").write_text(json.dumps(results, indent=1))
@@ -92,7 +92,7 @@ def main(argv: list[str] | None = None) -> None:
     print("  scenes/*.png                 both cameras and an overview of each scene")
     shorts = [short for _, short in runs()]
     for files, what in (
-        ([f"{s}/" for s in shorts], "trained maps (som.npz), metrics.jsonl, learning curve"),
+        ([f"{s}/" for s in shorts], "trained maps (checkpoint.npz), metrics.jsonl, learning curve"),
         ([f"{s}/eval_*/" for s in shorts], "evaluation tables and plots (rendered sensing, servo)"),
         ([f"{s}_som.mp4" for s in shorts], "the map (top) and exact IK (below) moving, real time"),
     ):

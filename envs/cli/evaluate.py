@@ -33,11 +33,11 @@ from envs.cli.controllers import (
     run_folder,
 )
 from envs.grasp import GRASP_ENV_IDS
-from envs.harness.checkpoint import read_identity
+from envs.harness.checkpoint import checkpoint_path, read_identity
 from envs.harness.evaluation import Evaluation, Ticking, evaluate
 from envs.harness.run_folder import check_writable, read_metrics, write_json
 from envs.harness.streams import seed_env
-from envs.harness.training import MAP_FILE, METRICS_FILE, RunConfig, Trainer
+from envs.harness.training import METRICS_FILE, RunConfig, Trainer
 from envs.reach import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.sizes import format_size
 from envs.studies.evaluation_report import format_pose_table, format_table, som_name, write_plots
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> dict:
     p.add_argument(
         "--run",
         type=run_folder,
-        help="a train.py run folder (som.npz, metrics.jsonl) or its som.npz",
+        help="a train.py run folder (checkpoint.npz, metrics.jsonl) or its checkpoint.npz",
     )
     options.CONTROLLER.add(p, help=f"instead of --run: {SPECS}; on PumaGrasp-v0: {POSE_SPECS}")
     p.add_argument(
@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     run_config = {}
     if args.run is not None:
-        checkpoint = args.run / MAP_FILE
+        checkpoint = checkpoint_path(args.run)
         if read_identity(checkpoint) is None:
             cli.fail(
                 f"{checkpoint} is a map without a training run's state; evaluate it with "
@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     cli.check_image_size(env_id, (width, height))
     out = check_writable(args.out or (args.run / "eval" if args.run else Path("runs/eval")))
-    specs = [str(args.run / MAP_FILE) if args.run else args.controller, *args.compare]
+    specs = [str(checkpoint_path(args.run)) if args.run else args.controller, *args.compare]
     pose = env_id in GRASP_ENV_IDS
     check_task(specs, pose)
     plotted = not args.no_plots and specs[0].endswith(".npz") and not pose

@@ -9,7 +9,7 @@ is its position lattice (default 8x8x6) and --orientation-lattice the lattice ne
 position node (default 2x2x2); --rule, --protocol and --abar belong to the reach map only. The
 held-out evaluations then also give the orientation error in degrees.
 
-Writes OUT/som.npz (the checkpoint: the map, where the run stands, the simulation state; it
+Writes OUT/checkpoint.npz (the checkpoint: the map, where the run stands, the simulation state; it
 loads as a map) and OUT/metrics.jsonl (a held-out evaluation every --eval-every trials: errors
 after the coarse move and each fine move in mm, % of the robot's reach and pixels).
 
@@ -33,8 +33,9 @@ from envs import sizes
 from envs.cli import common as cli
 from envs.cli import options
 from envs.grasp import GRASP_ENV_IDS
+from envs.harness.checkpoint import checkpoint_path
 from envs.harness.stopping import SignalStop, StopRequested
-from envs.harness.training import MAP_FILE, RESUMABLE, TRAINING_PAIRS, RunConfig, Trainer
+from envs.harness.training import RESUMABLE, TRAINING_PAIRS, RunConfig, Trainer
 from learners.persistence import writing
 from learners.som.config import RULES
 from learners.som.hierarchical_config import HierarchicalConfig
@@ -129,7 +130,7 @@ def main(argv: list[str] | None = None) -> Path:
                 train(trainer, args.checkpoint_every, stop)
         finally:
             trainer.close()
-    print(f"trained {trainer.trial} trials; map in {args.out / MAP_FILE}")
+    print(f"trained {trainer.trial} trials; map in {checkpoint_path(args.out)}")
     return args.out
 
 

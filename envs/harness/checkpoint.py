@@ -31,12 +31,23 @@ MAP_KINDS: dict[str, tuple[type, int]] = {
     hierarchical.KIND: (HierarchicalSOM, hierarchical.FORMAT_VERSION),
 }
 
-#: The unit's file name in a run folder (the map file the scripts load).
-CHECKPOINT_FILE = "som.npz"
+#: The unit's file name in a run folder (the map file the scripts load) ...
+CHECKPOINT_FILE = "checkpoint.npz"
+#: ... and the name runs before it kept it under: those runs keep it (resume writes it back).
+OLD_CHECKPOINT_FILE = "som.npz"
 _RUN, _SIM = "run", "sim_state"
 #: time, qpos, qvel, act, qacc_warmstart, ctrl, applied forces, mocap pose, ...: everything
 #: mj_step reads, so that a restored simulation continues bit for bit.
 SIM_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+def checkpoint_path(folder: str | os.PathLike) -> Path:
+    """The checkpoint unit of the run folder ``folder``: ``checkpoint.npz``, or the ``som.npz``
+    of a run written before the unit had that name (``checkpoint.npz`` when neither exists)."""
+    folder = Path(folder)
+    old = folder / OLD_CHECKPOINT_FILE
+    new = folder / CHECKPOINT_FILE
+    return old if old.is_file() and not new.is_file() else new
 
 
 def identity(env: Any, lattice: tuple[int, ...]) -> dict[str, Any]:

@@ -17,9 +17,11 @@ import numpy as np
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness.checkpoint import (
     CHECKPOINT_FILE,
+    OLD_CHECKPOINT_FILE,
     Map,
     check_identity,
     check_map_fits,
+    checkpoint_path,
     get_sim_state,
     identity,
     load_map,
@@ -43,8 +45,6 @@ from learners.som.hierarchical import HierarchicalSOM
 from learners.som.hierarchical_config import HierarchicalConfig
 from models.puma560.grasp import NARROW, WIDE, OrientationRange
 
-#: The checkpoint unit is also the run's map file (``VisuomotorSOM.load`` reads it).
-MAP_FILE = CHECKPOINT_FILE
 #: Run settings that ``--resume`` may change: ``trials`` (to go on past the old end; the map's
 #: schedules then stay at their final values). Everything else defines the run.
 RESUMABLE = ("trials",)
@@ -281,7 +281,7 @@ class Trainer:
     """Runs ``config.trials`` training trials, evaluating every ``eval_every`` trials.
 
     The folder ``out`` is locked while the trainer exists (``close()`` releases it) and holds
-    the checkpoint unit (``som.npz``: map, trainer state, simulation state, env generator,
+    the checkpoint unit (``checkpoint.npz``: map, trainer state, simulation state, env generator,
     metrics position) and ``metrics.jsonl`` (one held-out evaluation per row).
 
     Args:
@@ -294,7 +294,7 @@ class Trainer:
     def __init__(self, config: RunConfig, out: Path, force: bool = False) -> None:
         folder = RunFolder(out)
         try:
-            folder.claim_fresh((CHECKPOINT_FILE, METRICS_FILE), force)
+            folder.claim_fresh((CHECKPOINT_FILE, OLD_CHECKPOINT_FILE, METRICS_FILE), force)
             self._build(config, folder)
             self.pending_eval = True  # the evaluation of the untrained map, trial 0
             self.save()  # from here on every kill can be resumed
@@ -316,7 +316,7 @@ class Trainer:
     @staticmethod
     def stored_config(out: Path) -> RunConfig:
         """The configuration of the run saved in ``out`` (CheckpointError if there is none)."""
-        path = Path(out) / CHECKPOINT_FILE
+        path = checkpoint_path(out)
         if not path.is_file():
             raise CheckpointError(f"{path}: no checkpoint to resume; train without --resume")
         stored = read_unit(path)[0]["config"]
@@ -331,7 +331,7 @@ class Trainer:
         trainer = cls.__new__(cls)
         folder = RunFolder(out)
         try:
-            path = folder.path / CHECKPOINT_FILE
+            path = checkpoint_path(folder.path)
             config = cls.stored_config(out)
             run, sim_state = read_unit(path)
             if trials is not None:
@@ -374,7 +374,7 @@ class Trainer:
             "pending_eval": self.pending_eval,
             "env_rng": self.env.unwrapped.np_random.bit_generator.state,
         }
-        write_unit(self.out / CHECKPOINT_FILE, self.som, run, get_sim_state(self.env))
+        write_unit(checkpoint_path(self.out), self.som, run, get_sim_state(self.env))
 
     # -- the loop ------------------------------------------------------------------------------
 

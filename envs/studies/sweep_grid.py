@@ -16,7 +16,7 @@ and ``orientation_lattice`` are refused in a grid whose envs they do not fit.
 Each cell lives in ``OUT/cells/<name>/``, its name made of its values and a hash of its whole
 configuration, so a cell is found again by any sweep that contains it:
 
-    som.npz, metrics.jsonl                 the run folder (resumable, as ``train.py`` writes)
+    checkpoint.npz, metrics.jsonl          the run folder (resumable, as ``train.py`` writes)
     attempts.jsonl                         one line per attempt: worker pid, starting trial
     progress.json                          last checkpointed trial (for progress displays)
     cell.json                              the cell's results row, written last (= finished)
