@@ -142,16 +142,16 @@ class SOMConfig:
     t_max: int = option(
         DEFAULT_T_MAX, "trials over which the schedules fall from initial to final value"
     )
-    eps: Schedule = option(DEFAULT_EPS, "epsilon(t) of the w update")
-    sigma: Schedule = option(DEFAULT_SIGMA, "sigma(t) of the w update, lattice units")
-    eps_out: Schedule = option(DEFAULT_EPS_OUT, "epsilon'(t) of the theta and A update")
-    sigma_out: Schedule = option(
+    eps: Schedule = option(DEFAULT_EPS, "epsilon(t) of the w update")  # noqa: RUF009 (a field)
+    sigma: Schedule = option(DEFAULT_SIGMA, "sigma(t) of the w update, lattice units")  # noqa: RUF009 (a field)
+    eps_out: Schedule = option(DEFAULT_EPS_OUT, "epsilon'(t) of the theta and A update")  # noqa: RUF009 (a field)
+    sigma_out: Schedule = option(  # noqa: RUF009 (a field)
         DEFAULT_SIGMA_OUT, "sigma'(t) of the theta and A update and the output averaging"
     )
-    explore: Schedule = option(
+    explore: Schedule = option(  # noqa: RUF009 (a field)
         DEFAULT_EXPLORE, "std (rad) of the noise of exploratory (training) fine moves"
     )
-    gamma: Schedule = option(
+    gamma: Schedule = option(  # noqa: RUF009 (a field)
         DEFAULT_GAMMA, "Brause's single rate for w, theta and A (protocol brause, harmonic)",
         added_later=DEFAULT_GAMMA,
     )  # fmt: skip
@@ -163,7 +163,7 @@ class SOMConfig:
         "mrs", "the trial protocol: MRS's loop or Brause's own (3.7, 3.9, 3.10)",
         choices=PROTOCOLS, run=True, added_later="mrs",
     )  # fmt: skip
-    continual: Continual | None = option(
+    continual: Continual | None = option(  # noqa: RUF009 (a field)
         None, "keep re-adapting after t_max when the sensed error rises (None: floors)",
         omit_default=True,
     )  # fmt: skip

@@ -605,9 +605,6 @@ class VisuomotorSOM(Learner):
         """
         stored, arrays = load_npz(path, KIND, FORMAT_VERSION)
         try:
-            for key, kind in (("t", int), ("skipped", dict), ("rng_state", dict)):
-                if not isinstance(stored[key], kind):
-                    raise ValueError(f"config entry {key!r} is {stored[key]!r}, not of type {kind}")
             check_counts(stored)
             config = SOMConfig.from_dict(stored)
             bit_generator = restored_generator(stored["rng_state"])

@@ -95,6 +95,7 @@ from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.pose_pixels import PIXELS, check_pose_pixels
 from learners.som.hierarchical_config import HierarchicalConfig
 from learners.som.lattice import Lattice
+from learners.som.options import check_counts, restored_generator
 
 KIND = "HierarchicalSOM"
 FORMAT_VERSION = 1
@@ -123,7 +124,6 @@ TRUST_GROWTH = 2.0
 #: The trust radius's factor after a fine move that beat the trial's best (and 1/2 after an
 #: undone one).
 TRUST_EXPAND = 2.0
-_BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
 class HierarchicalSOM(Learner):
@@ -449,17 +449,9 @@ class HierarchicalSOM(Learner):
         entries, arrays = load_npz(path, KIND, FORMAT_VERSION)
         try:
             config = HierarchicalConfig.from_dict(entries)
-            t, skipped, state = entries["t"], entries["skipped"], entries["rng_state"]
-            if not isinstance(t, int) or isinstance(t, bool) or t < 0:
-                raise ValueError(f"t = {t!r} is not a count")
-            if not isinstance(skipped, dict) or set(skipped) != {"not_visible", "small_dv"}:
-                raise ValueError(f"skipped = {skipped!r} is not the two skip counts")
-            if not all(isinstance(n, int) and n >= 0 for n in skipped.values()):
-                raise ValueError(f"skipped = {skipped!r} holds counts that are not integers >= 0")
-            if state.get("bit_generator") not in _BIT_GENERATORS:
-                raise ValueError(f"unknown bit generator in {state!r}")
-            bit_generator = getattr(np.random, state["bit_generator"])()
-            bit_generator.state = state
+            check_counts(entries)
+            t, skipped = entries["t"], entries["skipped"]
+            bit_generator = restored_generator(entries["rng_state"])
             lower, upper = arrays["joint_lower"], arrays["joint_upper"]
             P, Q, J = config.n_positions, config.n_orientations, len(lower)
             shapes = {

@@ -105,11 +105,11 @@ class HierarchicalConfig:
     )  # fmt: skip
     image_size: tuple[int, int] = option((320, 240), "(width, height) px of both cameras")
     t_max: int = option(DEFAULT_T_MAX, "trials over which the schedules fall to their final value")
-    eps: Schedule = option(DEFAULT_EPS, "epsilon(t) of the input-weight update")
-    sigma: Schedule = option(DEFAULT_SIGMA, "sigma(t) of the input-weight update, lattice units")
-    eps_out: Schedule = option(DEFAULT_EPS_OUT, "epsilon'(t) of the output (theta, A) update")
-    sigma_out: Schedule = option(DEFAULT_SIGMA_OUT, "sigma'(t) of the output (theta, A) update")
-    explore: Schedule = option(
+    eps: Schedule = option(DEFAULT_EPS, "epsilon(t) of the input-weight update")  # noqa: RUF009 (a field)
+    sigma: Schedule = option(DEFAULT_SIGMA, "sigma(t) of the input-weight update, lattice units")  # noqa: RUF009 (a field)
+    eps_out: Schedule = option(DEFAULT_EPS_OUT, "epsilon'(t) of the output (theta, A) update")  # noqa: RUF009 (a field)
+    sigma_out: Schedule = option(DEFAULT_SIGMA_OUT, "sigma'(t) of the output (theta, A) update")  # noqa: RUF009 (a field)
+    explore: Schedule = option(  # noqa: RUF009 (a field)
         DEFAULT_EXPLORE, "std (rad) of the noise of exploratory (training) fine moves"
     )
     min_dv: float = option(
@@ -127,7 +127,7 @@ class HierarchicalConfig:
         added_later=True,
     )  # fmt: skip
     trust_radius: float = option(
-        DEFAULT_TRUST_RADIUS, "rad: no fine move turns a joint by more (with backtrack; 0: halving)",
+        DEFAULT_TRUST_RADIUS, "rad: no fine move turns a joint more (with backtrack; 0: halving)",
         added_later=0.0,
     )  # fmt: skip
 

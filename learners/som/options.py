@@ -47,7 +47,7 @@ T = TypeVar("T")
 
 def option(
     default: Any,
-    help: str,  # noqa: A002 - the metadata key, as argparse names it
+    help: str,  # the metadata key, as argparse names it
     *,
     choices: tuple[str, ...] | None = None,
     run: bool = False,
