@@ -131,14 +131,14 @@ class CompiledPath:
             state.remember_winner(u, s)
             return buffers[1].copy()
         v = np.asarray(v, dtype=float)
-        if v.shape != u.shape or memory.cmd is None or memory.u is None:
+        if v.shape != u.shape or memory.cmd is None or memory.u is None or memory.abar is None:
             return None
         if kernels.status(u, self.box) != kernels.OK or kernels.status(v, self.box):
             return None
         if u.tobytes() != memory.u.tobytes():  # a new target: Ā around its winner
             memory.abar, memory.u, memory.v = self.coarse(u, params)[1], u.copy(), None
         if memory.v is None and not explore and self.config.abar == "local-fit":
-            self._local_fit(u)  # once per target
+            self._local_fit(u, memory.abar)  # once per target
         std = params[4]
         noise = rng.normal(0.0, std, size=len(self.zeros)) if explore and std > 0 else None
         refine = self.config.refine and memory.v is not None
@@ -151,17 +151,16 @@ class CompiledPath:
         memory.v, memory.cmd_before = v_before, cmd_before
         return memory.cmd.copy()
 
-    def _local_fit(self, u: np.ndarray) -> None:
+    def _local_fit(self, u: np.ndarray, abar: np.ndarray) -> None:
         """Ā of the local fit at target u (``learners/som/local_fit.py``) written into the
-        fine-move memory's Ā, around the winner the coarse move found when the map has not
-        changed since."""
+        fine-move memory's Ā (``abar``, in place), around the winner the coarse move found
+        when the map has not changed since."""
         state = self.state
         s = state.remembered_winner(u)
         if s < 0:
             s = self.winner(u)
         kernels.local_fit(
-            s, u, state.w, state.A, state.shape, FIT_RADIUS, FIT_SIGMA, FIT_RIDGE,
-            self.memory.abar,
+            s, u, state.w, state.A, state.shape, FIT_RADIUS, FIT_SIGMA, FIT_RIDGE, abar,
         )  # fmt: skip
 
     def learn(self, trial: Trial, params: Params, t: int) -> int:

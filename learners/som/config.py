@@ -88,7 +88,7 @@ C = TypeVar("C", bound=type)
 
 def _refuse_renamed(cls: C) -> C:
     """``cls(rule=...)`` is a ValueError naming the new option and its values."""
-    generated = cls.__init__
+    generated = cls.__init__  # type: ignore[misc]  # the class's own, wrapped once here
 
     def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
         for old, (new, values) in RENAMED.items():

@@ -196,7 +196,10 @@ class HierarchicalSOM(Learner):
         """ε, σ, ε', σ' and the exploration std at t = trials learned so far."""
         c = self.config
         frac = min(self.t, c.t_max) / c.t_max
-        return tuple(s.at(frac) for s in (c.eps, c.sigma, c.eps_out, c.sigma_out, c.explore))
+        eps, sigma, eps_out, sigma_out, explore = (
+            s.at(frac) for s in (c.eps, c.sigma, c.eps_out, c.sigma_out, c.explore)
+        )
+        return eps, sigma, eps_out, sigma_out, explore
 
     def features(self, u: np.ndarray) -> np.ndarray:
         """f(u) (..., 12): marker 1's pixels, then ``orientation_gain`` times markers 2 and 3
@@ -263,7 +266,7 @@ class HierarchicalSOM(Learner):
     def _broyden(self, dtheta: np.ndarray, df: np.ndarray) -> None:
         """Ā += (Δθ − Ā Δf) Δf^T / |Δf|² from the last two commands and what they gave."""
         df2 = float(df @ df)
-        if self.config.refine and df2 >= self.config.min_dv**2:
+        if self.config.refine and df2 >= self.config.min_dv**2 and self._abar is not None:
             self._abar += np.outer(dtheta - self._abar @ df, df) / df2
 
     def _pixels(self, name: str, x: np.ndarray) -> np.ndarray:
@@ -289,7 +292,7 @@ class HierarchicalSOM(Learner):
         f = self.features(self._pixels("u", u))
         if v is None:
             r, s = (int(i[0]) for i in self.winners(f[None]))
-            command = self.theta[r, s] + self.A[r, s] @ (f - self.centre(r, s))
+            command = self.theta[r, s] + self.A[r, s] @ (f - self.centre(np.array(r), np.array(s)))
             self._abar = self.A[r, s].copy()
             self._fv = self._cmd_before = self._best = None
             self._step = self.config.trust_radius if self._trust else 1.0

@@ -261,7 +261,8 @@ def learn(
     of ``update_rule.targets`` and ``update_rule.mrs_update``, from the targets θ* (``mrs``,
     "coarse-error": θ_s + A_s(u − v0), else "fine-error": θ1 + A_s(w_s − v1)) and
     A* = A_s + (Δθ − A_s Δv)Δv^T/|Δv|² (+ ``noise_term`` A_s / |Δv|² when it is > 0,
-    ``sensing_noise``), both taken before the update; h = table_w[d²], h' = table_out[d²] (``Lattice.weights``: cut-off r² = len − 2).
+    ``sensing_noise``), both taken before the update;
+    h = table_w[d²], h' = table_out[d²] (``Lattice.weights``: cut-off r² = len − 2).
 
     The inputs are checked first: u, v0, v1 against the input box ``box`` (2, D), θ0, θ1
     against the joint box, rows 2-3 of ``joints`` (4, J) = (lower, upper, centre, inv_half).

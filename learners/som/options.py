@@ -197,7 +197,7 @@ def from_entries(config_cls: Callable[..., T], stored: dict[str, Any]) -> T:
             value = named[value]
         elif kind is dict:
             try:
-                value = Continual(**value)
+                value = Continual(**typing.cast(dict[str, Any], value))
             except TypeError as exc:
                 raise ValueError(f"config entry {key!r} is damaged ({exc})") from None
         options[f.name] = value
