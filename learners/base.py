@@ -15,25 +15,19 @@ import numpy as np
 #: Shorthand of the arrays in signatures (shapes are in the docstrings).
 Array = np.ndarray
 
-#: The trial protocols a controller may follow (``Controller.protocol``): the loop of Ritter,
-#: Martinetz & Schulten, where a fine move corrects from what was sensed and a trial stops when
-#: a marker is not seen, or Brause's (§3), whose fine move does not use what was sensed.
+#: The names of the trial loop's two ways of making fine moves (``Controller.protocol``, kept
+#: for ``envs.harness.trials`` until it reads ``Controller.fine_moves_need_sight``): "mrs", a
+#: fine move corrects from what was sensed, and "brause", it does not use what was sensed.
 PROTOCOLS = ("mrs", "brause")
 
 
 class Controller(ABC):
     """Camera coordinates in, absolute joint commands (radians) out.
 
-    The trial loop (``envs.harness.trials.run_trial``) relies on ``act``, ``reset`` and
-    ``protocol`` (and ``recover``, ``recovery_move``: by default no recovery); ``act_batch`` has
+    The trial loop (``envs.harness.trials.run_trial``) relies on ``act``, ``reset``,
+    ``fine_moves_need_sight`` and ``recovery_move`` (by default no recovery); ``act_batch`` has
     a row-by-row default.
     """
-
-    @property
-    def protocol(self) -> str:
-        """The trial protocol the controller follows, one of ``PROTOCOLS``: "mrs" unless a
-        controller says otherwise."""
-        return "mrs"
 
     @abstractmethod
     def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
@@ -44,9 +38,16 @@ class Controller(ABC):
         not explore ignores it."""
 
     @property
-    def recover(self) -> bool:
-        """Whether the trial loop asks for :meth:`recovery_move` when a camera loses the marker
-        after a move, instead of stopping the trial: False unless a controller says otherwise."""
+    def fine_moves_need_sight(self) -> bool:
+        """Whether a fine move corrects from the position sensed after the previous move, so
+        that a trial cannot go on when a camera loses the marker (unless :meth:`recovery_move`
+        gives a way back): True unless a controller says otherwise."""
+        return True
+
+    @property
+    def recovers(self) -> bool:
+        """Whether :meth:`recovery_move` may give moves: False unless a controller says
+        otherwise."""
         return False
 
     def recovery_move(self, u: np.ndarray, attempt: int) -> np.ndarray | None:
@@ -54,6 +55,16 @@ class Controller(ABC):
         after a move whose marker a camera did not see, or None when no attempt is left; the
         next ``act(u, v)`` corrects from where this command took the arm (v sensed there)."""
         return None
+
+    @property
+    def protocol(self) -> str:
+        """``fine_moves_need_sight`` as the trial loop's protocol name ("mrs" or "brause")."""
+        return "mrs" if self.fine_moves_need_sight else "brause"
+
+    @property
+    def recover(self) -> bool:
+        """``recovers`` under the trial loop's first name."""
+        return self.recovers
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (N, 4) -> (N, J)."""

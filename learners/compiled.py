@@ -2,8 +2,15 @@
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+numba: Any
 try:
-    import numba
+    numba = importlib.import_module("numba")
 except ImportError:  # the numpy path is used
     numba = None
 
@@ -12,6 +19,9 @@ def available() -> bool:
     return numba is not None
 
 
-def jit(function):
+def jit(function: F) -> F:
     """Compiled with numba (cached on disk), or the plain Python function without numba."""
-    return numba.njit(cache=True, nogil=True)(function) if numba is not None else function
+    if numba is None:
+        return function
+    compiled: F = numba.njit(cache=True, nogil=True)(function)
+    return compiled

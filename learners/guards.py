@@ -65,7 +65,7 @@ def option_number(owner: str, name: str, value: Any, kind: type) -> Any:
     """``value`` as ``kind`` (int or float), else ValueError naming ``owner.name``."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
         raise ValueError(f"{owner}.{name} must be a finite {kind.__name__}, got {value!r}")
-    if kind is int and value != int(value):
+    if kind is int and value != int(value):  # type: ignore[call-overload]  # a finite Real
         raise ValueError(f"{owner}.{name} must be an integer, got {value!r}")
     return kind(value)
 

@@ -162,19 +162,19 @@ class NATEnet:
         an axis with count 1 sits at the middle of its range. Other kwargs as the constructor.
         """
         lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
-        counts = np.asarray(counts, dtype=int)
-        if not (lower.shape == upper.shape == counts.shape) or np.any(counts < 1):
+        grid_counts = np.asarray(counts, dtype=int)
+        if not (lower.shape == upper.shape == grid_counts.shape) or np.any(grid_counts < 1):
             raise ValueError(
-                "lower, upper and counts need one entry per input dimension, counts ≥ 1"
+                "lower, upper and grid_counts need one entry per input dimension, grid_counts ≥ 1"
             )
         axes = [
             np.linspace(lo, hi, n) if n > 1 else np.array([(lo + hi) / 2])
-            for lo, hi, n in zip(lower, upper, counts, strict=True)
+            for lo, hi, n in zip(lower, upper, grid_counts, strict=True)
         ]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(counts))
-        kwargs.update(input_dim=len(counts), max_nodes=max(len(grid), 1), allocate=False)
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(grid_counts))
+        kwargs.update(input_dim=len(grid_counts), max_nodes=max(len(grid), 1), allocate=False)
         net = cls(**kwargs)
-        spacing = ((upper - lower) / np.maximum(counts - 1, 1))[counts > 1]
+        spacing = ((upper - lower) / np.maximum(grid_counts - 1, 1))[grid_counts > 1]
         sigma = net.lam * spacing.min() if spacing.size else net.sigma_init
         net.centres, net.widths = grid, np.full(len(grid), sigma)
         net.outputs = np.zeros((len(grid), *net.output_shape))

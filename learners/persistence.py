@@ -117,7 +117,7 @@ def save_npz(
         _CONFIG: np.array(json.dumps(stored, sort_keys=True)),
         **arrays,
     }
-    return write_atomic(path, lambda f: np.savez(f, **payload))
+    return write_atomic(path, lambda f: np.savez(f, **payload))  # type: ignore[arg-type]  # numpy's stub types savez's keyword arrays as its allow_pickle flag
 
 
 def load_npz(
@@ -217,6 +217,9 @@ def _read_archive(path: Path) -> dict[str, np.ndarray]:
                     )
                 data = member.read(size)
                 member.read()  # to the end: zipfile checks the CRC there
-            order = "F" if fortran else "C"
-            contents[name] = np.frombuffer(data, dtype=dtype).reshape(shape, order=order).copy()
+            contents[name] = (
+                np.frombuffer(data, dtype=dtype)
+                .reshape(shape, order="F" if fortran else "C")
+                .copy()
+            )
     return contents

@@ -36,8 +36,9 @@ def continue_training(kernel: str, offset: int | None) -> np.ndarray:
     out = []
     for trial in range(80):
         if trial == 50 and offset is not None:  # the learned state moves to new addresses
-            som._w, som._th, som._A, som._w2 = (at_offset(a, offset) for a in
-                                                (som._w, som._th, som._A, som._w2))  # fmt: skip
+            st = som.learned
+            st.w, st.theta, st.A, st.w2 = (at_offset(a, offset) for a in
+                                           (st.w, st.theta, st.A, st.w2))  # fmt: skip
         u, v0, v1 = rng.uniform(0.2, 0.8, (3, 4)) * IMAGE
         theta0 = som.act(u)
         theta1 = som.act(u, v0, explore=True)

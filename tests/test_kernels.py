@@ -54,7 +54,7 @@ def run(kernel: str, trials: int = 1000, **kw) -> tuple[VisuomotorSOM, np.ndarra
     "options",
     [
         {},
-        {"rule": "brause"},
+        {"theta_target": "fine-error"},
         {"averaging": "winner"},
         {"refine": False},
         {"abar": "average"},
@@ -79,7 +79,7 @@ def test_compiled_path_equals_the_numpy_reference_over_1000_trials(options):
 def test_pruned_winner_search_of_large_lattices_equals_the_plain_scan():
     fast, _ = run("numba", trials=300, lattice=(16, 16, 16))  # 4096 neurons: pruned search
     ref, _ = run("numpy", trials=300, lattice=(16, 16, 16))
-    assert fast._pruned and not ref._pruned
+    assert fast.learned.pruned and not ref.learned.pruned
     np.testing.assert_array_equal(fast.w, ref.w)  # the same winners in all 300 trials
     np.testing.assert_allclose(fast.theta, ref.theta, rtol=0, atol=TOLERANCE)
     rng = np.random.default_rng(5)
@@ -88,7 +88,7 @@ def test_pruned_winner_search_of_large_lattices_equals_the_plain_scan():
     for u, v0, v1 in zip(*inputs(300, seed=7), strict=True):  # moved neurons widen blocks
         fast.learn(u, fast.act(u), v0, fast.act(u, v0), v1)
     for u in rng.uniform(-0.2, 1.2, size=(2000, 4)) * IMAGE:  # also outside the image
-        assert fast._winner(u) == int(np.argmin(((fast.w - u) ** 2).sum(1)))
+        assert fast.winner(u) == int(np.argmin(((fast.w - u) ** 2).sum(1)))
 
 
 @pytest.mark.parametrize("kernel", ["numba", "numpy"])

@@ -111,16 +111,16 @@ TRIAL = {
 }
 
 
-@pytest.mark.parametrize("rule", ["mrs", "brause"])
-def test_one_learn_equals_the_update_by_hand(rule):
+@pytest.mark.parametrize("target", ["coarse-error", "fine-error"])
+def test_one_learn_equals_the_update_by_hand(target):
     eps, sigma, eps_out, sigma_out = 0.5, 0.8, 0.3, 0.6
-    som = small_map(rule=rule, eps=eps, sigma=sigma, eps_out=eps_out, sigma_out=sigma_out)
+    som = small_map(theta_target=target, eps=eps, sigma=sigma, eps_out=eps_out, sigma_out=sigma_out)
     w, th, A = som.w.copy(), som.theta.copy(), som.A.copy()
     u, th0, v0, th1, v1 = TRIAL.values()
     s = int(np.argmin([np.hypot(*(u - w[r])) for r in range(6)]))
     d_theta, dv = th1 - th0, v1 - v0
     a_star = A[s] + np.outer(d_theta - A[s] @ dv, dv) / (dv @ dv)
-    theta_star = th[s] + A[s] @ (u - v0) if rule == "mrs" else th1 + A[s] @ (w[s] - v1)
+    theta_star = th[s] + A[s] @ (u - v0) if target == "coarse-error" else th1 + A[s] @ (w[s] - v1)
     h, h_out = gauss(s, sigma), gauss(s, sigma_out)
     assert h.min() > H_CUTOFF and h_out.min() > H_CUTOFF  # nothing truncated here
     assert som.learn(**TRIAL) is True
@@ -132,10 +132,10 @@ def test_one_learn_equals_the_update_by_hand(rule):
     assert som.t == 1
 
 
-def test_brause_rule_reproduces_the_printed_equations_for_his_protocol():
+def test_the_fine_error_target_reproduces_the_printed_equations_for_brause_protocol():
     """Brause (3.9), (3.10): coarse move Θ_c, fine move Θ_c + A_c(x − w_c)."""
     eps_out = 0.7
-    som = small_map(rule="brause", averaging="winner", eps_out=eps_out, sigma_out=0.01)
+    som = small_map(theta_target="fine-error", averaging="winner", eps_out=eps_out, sigma_out=0.01)
     x, x_i, x_f = np.array([1.2, 0.1]), np.array([1.05, 0.02]), np.array([1.18, 0.13])
     c = 2
     theta_c, a_c, w_c = som.theta[c].copy(), som.A[c].copy(), som.w[c].copy()
@@ -215,8 +215,10 @@ def test_invisible_markers_and_tiny_moves_are_skipped_and_counted():
 
 
 def test_bad_options_name_the_valid_choices():
-    with pytest.raises(ValueError, match="mrs, brause"):
-        small_map(rule="kohonen")
+    with pytest.raises(ValueError, match="coarse-error, fine-error"):
+        small_map(theta_target="kohonen")
+    with pytest.raises(ValueError, match="unknown rule 'kohonen'; valid: mrs, brause"):
+        small_map(rule="kohonen")  # the old name, values as files store them
     with pytest.raises(ValueError, match="neighbourhood, winner"):
         small_map(averaging="all")
     with pytest.raises(ValueError, match=r"theta_init must have shape \(2,\)"):
@@ -282,10 +284,10 @@ def test_save_load_round_trip_is_exact(tmp_path):
     for name in ("w", "theta", "A", "lower", "upper", "input_low", "input_high"):
         np.testing.assert_array_equal(getattr(back, name), getattr(som, name))
     assert back.rng.bit_generator.state == som.rng.bit_generator.state
-    assert (back.t, back.skipped, back.rule, back.lattice) == (
+    assert (back.t, back.skipped, back.theta_target, back.lattice) == (
         som.t,
         som.skipped,
-        som.rule,
+        som.theta_target,
         som.lattice,
     )
     assert back.skipped["not_visible"] == 2

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from envs.cli import evaluate, train
-from learners.som.config import ABAR, PROTOCOLS, SCHEDULES, SOMConfig
+from learners.som.config import ABAR, PROTOCOLS, SCHEDULES, THETA_TARGETS, SOMConfig, run_options
 from learners.som.controller import VisuomotorSOM, kernels
+from learners.som.hierarchical_config import HierarchicalConfig
 from learners.som.schedules import Continual, Schedule
 from models.riacs import LOWER, UPPER
 
@@ -117,7 +118,7 @@ def test_unknown_options_are_refused_naming_the_valid_ones():
 def _everything_else() -> SOMConfig:
     """A configuration whose every field differs from the default."""
     return SOMConfig(
-        lattice=(5, 4), input_dim=3, rule="brause", averaging="winner", refine=False,
+        lattice=(5, 4), input_dim=3, theta_target="fine-error", averaging="winner", refine=False,
         abar="average", t_max=77, eps=(0.7, 0.07), sigma=(1.5, 0.2), eps_out=(0.3, 0.03),
         sigma_out=(2.2, 0.3), explore=(0.0, 0.0), gamma=(0.9, 0.2), a_init=0.25, min_dv=0.5,
         sensing_noise=0.1,
@@ -168,7 +169,12 @@ def test_entries_written_before_an_option_existed_take_the_old_defaults():
         ("protocol", "ritter", "protocol 'ritter'; valid: mrs, brause"),
         ("schedules", {"eps": [1.0]}, "'schedules' holds 'eps'"),
         ("schedules", {"epsilon": [1.0, 0.1]}, "'schedules' holds 'epsilon'"),
-        ("schedules", {"eps_out": [0.5, 3.0]}, "eps_out is a learning rate"),
+        (
+            "schedules",
+            {**SOMConfig().to_dict()["schedules"], "eps_out": [0.5, 3.0]},
+            "eps_out is a learning rate",
+        ),
+        ("schedules", {"gamma": [1.0, 0.1]}, "'schedules' lacks 'eps'"),
         ("continual", {"fast": 0.5, "speed": 2}, "'continual'"),
         ("continual", [0.02], "'continual'"),
     ],
@@ -240,3 +246,105 @@ def test_evaluate_protocol_brause_on_an_mrs_map_moves_as_brause(mrs_run, tmp_pat
     assert brause["complete_fraction"] == 1.0
     # MRS's fine moves correct from what was sensed: the second improves on the first.
     assert mrs["mean_mm"][2] < mrs["mean_mm"][1]
+
+
+# ------------------------------------------------------------------ the entries as files hold them
+#: What ``SOMConfig().to_dict()`` wrote before the options were generated from the fields
+#: (copied from that code's output): the same keys, values and order.
+MAIN_DEFAULT_ENTRIES = {
+    "lattice": [12, 7, 4], "input_dim": 4, "rule": "mrs", "averaging": "neighbourhood",
+    "refine": True, "abar": "local-fit", "t_max": 10000,
+    "schedules": {"eps": [1.0, 0.005], "sigma": [2.0, 0.1], "eps_out": [0.9, 0.1],
+                  "sigma_out": [2.5, 0.01], "explore": [0.05, 0.005], "gamma": [1.0, 0.1]},
+    "a_init": 0.1, "min_dv": 0.001, "protocol": "mrs",
+}  # fmt: skip
+#: ... and for a configuration with every optional entry present (the same code's output).
+MAIN_OTHER_ENTRIES = {
+    "lattice": [5, 4], "input_dim": 3, "rule": "brause", "averaging": "winner", "refine": False,
+    "abar": "average", "t_max": 500,
+    "schedules": {"eps": [0.5, 0.01], "sigma": [1.0, 1.0], "eps_out": [0.9, 0.1],
+                  "sigma_out": [2.5, 0.01], "explore": [0.05, 0.005], "gamma": [1.0, 0.1]},
+    "a_init": 0.0, "min_dv": 0.01, "protocol": "brause",
+    "continual": {"fast": 0.02, "slow": 0.001, "trigger": 1.5, "rewind": 0.25, "readapt": 3000},
+    "recover": True, "sensing_noise": 0.5,
+}  # fmt: skip
+
+
+def _other() -> SOMConfig:
+    return SOMConfig(
+        lattice=(5, 4), input_dim=3, theta_target="fine-error", averaging="winner",
+        refine=False, abar="average", t_max=500, eps=(0.5, 0.01), sigma=1.0, a_init=0,
+        min_dv=0.01, sensing_noise=0.5, protocol="brause", continual=Continual(), recover=True,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("config", "expected"),
+    [(SOMConfig(), MAIN_DEFAULT_ENTRIES), (_other(), MAIN_OTHER_ENTRIES)],
+    ids=["defaults", "every-entry"],
+)
+def test_the_entries_are_those_files_hold(config, expected):
+    entries = config.to_dict()
+    assert entries == expected
+    assert list(entries) == list(expected)  # the order too
+    assert list(entries["schedules"]) == list(expected["schedules"])
+    assert SOMConfig.from_dict(json.loads(json.dumps(expected))) == config
+
+
+def test_an_old_rule_entry_reads_as_the_new_theta_target():
+    for old, new in (("mrs", "coarse-error"), ("brause", "fine-error")):
+        assert SOMConfig.from_dict({**MAIN_DEFAULT_ENTRIES, "rule": old}).theta_target == new
+        assert SOMConfig.of(rule=old).theta_target == new  # callers written before the rename
+        assert SOMConfig(theta_target=new).rule == old
+
+
+def test_the_old_option_name_is_refused_naming_the_new_one():
+    with pytest.raises(
+        ValueError,
+        match=r"no option 'rule': it is 'theta_target' = "
+        r"'coarse-error' \(was 'mrs'\), 'fine-error' \(was 'brause'\)",
+    ):
+        SOMConfig(rule="mrs")
+
+
+def test_every_field_declares_its_help_and_run_flag():
+    for config_cls in (SOMConfig, HierarchicalConfig):
+        for f in fields(config_cls):
+            assert isinstance(f.metadata["help"], str) and f.metadata["help"], f.name
+            assert "\n" not in f.metadata["help"], f.name
+            assert isinstance(f.metadata["run"], bool), f.name
+            choices = f.metadata.get("choices")
+            assert choices is None or (
+                isinstance(choices, tuple) and getattr(config_cls(), f.name) in choices
+            ), f.name
+
+
+def test_the_run_options_are_the_ones_a_training_run_stores():
+    assert [f.name for f in run_options(SOMConfig)] == [
+        "lattice", "theta_target", "refine", "abar", "protocol", "sensing_noise",
+    ]  # fmt: skip
+    assert [f.name for f in run_options(HierarchicalConfig)] == [
+        "position_lattice", "orientation_lattice", "refine",
+    ]  # fmt: skip
+    assert dict(fields(SOMConfig)[2].metadata)["choices"] == THETA_TARGETS
+
+
+def test_the_entries_of_files_written_before_an_option_are_declared_on_it():
+    late = {
+        f.name: f.metadata["added_later"] for f in fields(SOMConfig) if "added_later" in f.metadata
+    }
+    assert late == {"abar": "local-fit", "gamma": Schedule(1.0, 0.1), "protocol": "mrs"}
+    late = {
+        f.name: f.metadata["added_later"]
+        for f in fields(HierarchicalConfig) if "added_later" in f.metadata
+    }  # fmt: skip
+    assert late == {"backtrack": True, "trust_radius": 0.0}
+
+
+def test_the_map_has_a_read_only_attribute_for_every_field_and_the_old_name():
+    som = VisuomotorSOM(LOWER, UPPER, _other(), rng=0, kernel="numpy")
+    for f in fields(SOMConfig):
+        assert getattr(som, f.name) == getattr(som.config, f.name)
+    assert som.rule == "brause"
+    with pytest.raises(AttributeError, match=r"with_config\(theta_target="):
+        som.rule = "mrs"

@@ -162,7 +162,7 @@ class PoseJacobianIK(_PoseFloor):
         while np.linalg.norm(error) >= self.tolerance and iterations < self.max_iterations:
             J = jacobian(theta)  # (6, 6)
             step = J.T @ np.linalg.solve(J @ J.T + damping2, error)
-            step *= min(1.0, self.max_step / max(np.linalg.norm(step), 1e-300))
+            step *= min(1.0, self.max_step / max(float(np.linalg.norm(step)), 1e-300))
             theta = np.clip(theta + step, self.lower, self.upper)
             error = self.pose_error(goal, theta)
             iterations += 1

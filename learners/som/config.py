@@ -1,10 +1,11 @@
 """The options of the visuomotor map, in one frozen dataclass.
 
-:class:`SOMConfig` is the only list of the map's options: the constructor of
-:class:`~learners.som.controller.VisuomotorSOM` takes its fields by name, the map's option
-attributes read it, its checkpoint stores :meth:`SOMConfig.to_dict` and reads it back with
-:meth:`SOMConfig.from_dict`, and the command-line programs take their choices (``PROTOCOLS``,
-``ABAR``, ...) from here. The meaning of every option is in the map's module docstring.
+:class:`SOMConfig` is the only list of the map's options. Each field is declared once, with its
+metadata (help, choices, whether a training run exposes it, how files written before it existed
+read: ``learners/som/options.py``); the checkpoint entries (:meth:`SOMConfig.to_dict`,
+:meth:`SOMConfig.from_dict`), the map's read-only option attributes, a training run's options
+(:func:`run_options`) and the command-line choices are generated from the fields. What each
+option does is on ``docs/map.md``.
 
 The compute kernel (numba or numpy) is not an option of the map: both give the same moves (the
 compiled path is checked against the numpy reference), so it is chosen where the map is built
@@ -14,19 +15,30 @@ or loaded and is not stored with it.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
-from typing import Any
+from dataclasses import dataclass, fields, replace
+from typing import Any, TypeVar
 
 from learners.base import PROTOCOLS
-from learners.guards import option_number
+from learners.som.options import (
+    check_common,
+    entries,
+    from_entries,
+    number,
+    option,
+    positive_shape,
+    run_options,
+    schedule_names,
+)
 from learners.som.schedules import Continual, Schedule, harmonic
 
-RULES = ("mrs", "brause")
+__all__ = [
+    "ABAR", "AVERAGING", "MAX_NEURONS", "NOISE_SKIP", "NOISE_TERMS", "PROTOCOLS", "RULES",
+    "SCHEDULES", "SHAPE_OPTIONS", "THETA_TARGETS", "SOMConfig", "run_options",
+]  # fmt: skip
+
 AVERAGING = ("neighbourhood", "winner")
 #: Ā of the fine moves: MRS's σ'-average of the A_r, or this project's local fit at u.
 ABAR = ("average", "local-fit")
-#: The schedules of the map, in the order its checkpoint stores them.
-SCHEDULES = ("eps", "sigma", "eps_out", "sigma_out", "explore", "gamma")
 #: Options fixed by the shape of the learned arrays: a learned map cannot change them.
 SHAPE_OPTIONS = ("lattice", "input_dim")
 #: Neurons a lattice may have: 10^7 neurons of 4 inputs and 6 joints hold about 2.7 GB.
@@ -59,112 +71,134 @@ NOISE_SKIP = 5
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
 
-_CHOICES = {"rule": RULES, "averaging": AVERAGING, "abar": ABAR, "protocol": PROTOCOLS}
-#: Entries a checkpoint written before the option existed lacks: read as these values.
-_ADDED_LATER = {"abar": "local-fit", "protocol": "mrs"}
+#: The θ* the outputs learn towards (``theta_target``): the error sensed after the coarse move
+#: (θ_s + A_s(u − v0), MRS) or after the fine move (θ1 + A_s(w_s − v1), Brause 3.9).
+THETA_TARGETS = ("coarse-error", "fine-error")
+#: ... as a checkpoint stores them, under the option's first name ``rule`` (files keep their
+#: bytes; ``SOMConfig.of(rule=...)`` still takes these for callers written before the rename).
+RULES = ("mrs", "brause")
+_STORED_TARGETS = dict(zip(THETA_TARGETS, RULES, strict=True))
+#: The option's old name and how its values read now.
+RENAMED = {"rule": ("theta_target", {v: k for k, v in _STORED_TARGETS.items()})}
+_OWNER = "SOMConfig"
 
 
-def _number(name: str, value: Any, kind: type) -> Any:
-    """``value`` as ``kind`` (int or float), else ValueError naming the option."""
-    return option_number("SOMConfig", name, value, kind)
+C = TypeVar("C", bound=type)
 
 
+def _refuse_renamed(cls: C) -> C:
+    """``cls(rule=...)`` is a ValueError naming the new option and its values."""
+    generated = cls.__init__  # type: ignore[misc]  # the class's own, wrapped once here
+
+    def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
+        for old, (new, values) in RENAMED.items():
+            if old in kwargs:
+                spelled = ", ".join(f"{n!r} (was {o!r})" for o, n in values.items())
+                raise ValueError(f"SOMConfig has no option {old!r}: it is {new!r} = {spelled}")
+        generated(self, *args, **kwargs)
+
+    __init__.__doc__, __init__.__wrapped__ = generated.__doc__, generated  # type: ignore[attr-defined]
+    cls.__init__ = __init__  # type: ignore[misc]
+    return cls
+
+
+@_refuse_renamed
 @dataclass(frozen=True)
 class SOMConfig:
-    """Every option of the visuomotor map (see ``learners/som/controller.py`` for what each
-    does). Values are checked on construction; schedules may be given as a
-    :class:`~learners.som.schedules.Schedule`, an (initial, final) pair or one constant.
+    """Every option of the visuomotor map (``docs/map.md`` says what each does). Values are
+    checked on construction; schedules may be given as a
+    :class:`~learners.som.schedules.Schedule`, an (initial, final) pair or one constant. Each
+    field's metadata (``learners/som/options.py``) holds its one-line help, its choices, whether
+    a training run exposes it, and how its checkpoint stores it.
 
-    Args:
-        lattice: lattice shape, default (12, 7, 4) = 336 neurons (MRS 1990).
-        input_dim: D, 4 for two cameras' pixels (u1, v1, u2, v2), 3 for Cartesian input.
-        rule: one of ``RULES``: the θ* the outputs learn towards.
-        averaging: one of ``AVERAGING``: outputs averaged with width σ', or the winner alone.
-        refine: correct Ā between fine moves of one target (Broyden step).
-        abar: one of ``ABAR``: Ā of the fine moves.
-        t_max: trials over which the schedules fall from their initial to their final value.
-        eps, sigma: ε(t) and σ(t) of the w update (σ in lattice units).
-        eps_out, sigma_out: ε'(t), σ'(t) of the θ/A update and of the output averaging.
-        explore: std (rad) of the noise of fine commands made with ``explore=True``.
-        gamma: Brause's single rate for w, Θ and A under protocol "brause" (harmonic).
-        a_init: std of the random start of A_r, as a fraction of mean joint span / mean input
-            span (0 = start at A = 0).
-        min_dv: trials with |v1 − v0| below this are skipped (input units).
-        sensing_noise: σ, the std of the error of one sensed input coordinate (input units,
-            e.g. pixels): the Widrow-Hoff step of A adds 3σ² A_s to its numerator, undoing the
-            shrinking of A that noise in v0 and v1 causes (errors in variables; 0: the
-            published step). Trials with |Δv| < ``NOISE_SKIP`` σ are then skipped (as below
-            ``min_dv``). Protocol "mrs" only.
-        protocol: one of ``PROTOCOLS``: MRS's loop or Brause's own.
-        continual: a :class:`~learners.som.schedules.Continual` to keep re-adapting after t_max
-            when the sensed error rises (None: the standard schedules, floors from t_max on).
-        recover: when a camera loses the marker after a move, make recovery moves (a detour
-            the map has learned, ``learners/som/recovery.py``) and go on, instead of stopping
-            the trial (MRS's loop stops; not in the papers). Protocol "mrs" only.
     Raises:
         ValueError: an option of the wrong type, an unknown choice (the valid ones named), a
-            size or count below its minimum, or a schedule out of its range.
+            size or count below its minimum, a schedule out of its range, or the old name
+            ``rule`` (the error names ``theta_target``).
     """
 
-    lattice: tuple[int, ...] = (12, 7, 4)
-    input_dim: int = 4
-    rule: str = "mrs"
-    averaging: str = "neighbourhood"
-    refine: bool = True
-    abar: str = "local-fit"
-    t_max: int = DEFAULT_T_MAX
-    eps: Schedule = DEFAULT_EPS
-    sigma: Schedule = DEFAULT_SIGMA
-    eps_out: Schedule = DEFAULT_EPS_OUT
-    sigma_out: Schedule = DEFAULT_SIGMA_OUT
-    explore: Schedule = DEFAULT_EXPLORE
-    gamma: Schedule = DEFAULT_GAMMA
-    a_init: float = DEFAULT_A_INIT
-    min_dv: float = DEFAULT_MIN_DV
-    sensing_noise: float = DEFAULT_SENSING_NOISE
-    protocol: str = "mrs"
-    continual: Continual | None = None
-    recover: bool = False
+    lattice: tuple[int, ...] = option(
+        (12, 7, 4), "lattice shape, default 12x7x4 = 336 neurons (MRS 1990)", run=True
+    )
+    input_dim: int = option(4, "D: 4 for two cameras' pixels (u1, v1, u2, v2), 3 for Cartesian")
+    theta_target: str = option(
+        "coarse-error",
+        "the theta* the outputs learn towards: the error sensed after the coarse move (MRS) "
+        "or after the fine move (Brause 3.9)",
+        choices=THETA_TARGETS, run=True, stored_as="rule", stored_values=_STORED_TARGETS,
+    )  # fmt: skip
+    averaging: str = option(
+        "neighbourhood", "outputs averaged with width sigma', or the winner alone",
+        choices=AVERAGING,
+    )  # fmt: skip
+    refine: bool = option(
+        True, "correct the fine moves' A-bar between fine moves of one target (Broyden step)",
+        run=True,
+    )  # fmt: skip
+    abar: str = option(
+        "local-fit", "A-bar of the test-time fine moves: MRS's average or a local fit at u",
+        choices=ABAR, run=True, added_later="local-fit",
+    )  # fmt: skip
+    t_max: int = option(
+        DEFAULT_T_MAX, "trials over which the schedules fall from initial to final value"
+    )
+    eps: Schedule = option(DEFAULT_EPS, "epsilon(t) of the w update")  # noqa: RUF009 (a field)
+    sigma: Schedule = option(DEFAULT_SIGMA, "sigma(t) of the w update, lattice units")  # noqa: RUF009 (a field)
+    eps_out: Schedule = option(DEFAULT_EPS_OUT, "epsilon'(t) of the theta and A update")  # noqa: RUF009 (a field)
+    sigma_out: Schedule = option(  # noqa: RUF009 (a field)
+        DEFAULT_SIGMA_OUT, "sigma'(t) of the theta and A update and the output averaging"
+    )
+    explore: Schedule = option(  # noqa: RUF009 (a field)
+        DEFAULT_EXPLORE, "std (rad) of the noise of exploratory (training) fine moves"
+    )
+    gamma: Schedule = option(  # noqa: RUF009 (a field)
+        DEFAULT_GAMMA, "Brause's single rate for w, theta and A (protocol brause, harmonic)",
+        added_later=DEFAULT_GAMMA,
+    )  # fmt: skip
+    a_init: float = option(
+        DEFAULT_A_INIT, "std of the random start of A, a fraction of joint span / input span"
+    )
+    min_dv: float = option(DEFAULT_MIN_DV, "trials with |v1 - v0| below this are skipped")
+    protocol: str = option(
+        "mrs", "the trial protocol: MRS's loop or Brause's own (3.7, 3.9, 3.10)",
+        choices=PROTOCOLS, run=True, added_later="mrs",
+    )  # fmt: skip
+    continual: Continual | None = option(  # noqa: RUF009 (a field)
+        None, "keep re-adapting after t_max when the sensed error rises (None: floors)",
+        omit_default=True,
+    )  # fmt: skip
+    recover: bool = option(
+        False, "after a move a camera did not see, make recovery moves instead of stopping",
+        omit_default=True,
+    )  # fmt: skip
+    sensing_noise: float = option(
+        DEFAULT_SENSING_NOISE,
+        "sigma, std of a sensed input coordinate's error that the Widrow-Hoff step of A "
+        "corrects for (input units; 0: the published step)",
+        run=True, omit_default=True,
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
-        def put(name: str, value: Any) -> None:
-            object.__setattr__(self, name, value)
-
-        for name, choices in _CHOICES.items():
-            if getattr(self, name) not in choices:
-                raise ValueError(
-                    f"unknown {name} {getattr(self, name)!r}; valid: {', '.join(choices)}"
-                )
-        try:
-            lattice = tuple(_number("lattice", n, int) for n in self.lattice)
-        except TypeError:
-            lattice = ()
-        if not lattice or min(lattice) < 1:
-            raise ValueError(f"SOMConfig.lattice must be a tuple of positive sizes, got {lattice}")
+        check_common(self)
+        lattice = positive_shape(_OWNER, "lattice", self.lattice)
+        if not lattice:
+            raise ValueError(
+                f"SOMConfig.lattice must be a tuple of positive sizes, got {self.lattice!r}"
+            )
         if math.prod(lattice) > MAX_NEURONS:
             raise ValueError(
                 f"SOMConfig.lattice {lattice} has {math.prod(lattice):,} neurons; at most "
                 f"{MAX_NEURONS:,} fit in memory (a 40x40x40 lattice has 64,000)"
             )
-        put("lattice", lattice)
-        for name in ("refine", "recover"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(
-                    f"SOMConfig.{name} must be True or False, got {getattr(self, name)!r}"
-                )
+        object.__setattr__(self, "lattice", lattice)
         for name, kind, least in (
             ("input_dim", int, 1), ("t_max", int, 1), ("a_init", float, 0), ("min_dv", float, 0),
             ("sensing_noise", float, 0),
         ):  # fmt: skip
-            value = _number(name, getattr(self, name), kind)
+            value = number(_OWNER, name, getattr(self, name), kind)
             if value < least:
                 raise ValueError(f"SOMConfig.{name} must be >= {least}, got {value}")
-            put(name, value)
-        for name in SCHEDULES:
-            put(name, self._schedule(name, getattr(self, name)))
-        for name in ("eps", "eps_out"):
-            if max(getattr(self, name).initial, getattr(self, name).final) > 1.0:
-                raise ValueError(f"{name} is a learning rate in [0, 1], got {getattr(self, name)}")
+            object.__setattr__(self, name, value)
         harmonic(self.gamma.initial, self.gamma.final, 0, self.t_max)  # raises for a bad gamma
         if self.continual is not None and not isinstance(self.continual, Continual):
             raise ValueError(
@@ -172,25 +206,15 @@ class SOMConfig:
             )
 
     @property
+    def rule(self) -> str:
+        """``theta_target`` by its old name and values ("mrs", "brause"), as files store it."""
+        return _STORED_TARGETS[self.theta_target]
+
+    @property
     def learn_min_dv(self) -> float:
         """Trials with |v1 − v0| below this are not learned: ``min_dv``, or ``NOISE_SKIP`` σ
         when that is larger (``sensing_noise``)."""
         return max(self.min_dv, NOISE_SKIP * self.sensing_noise)
-
-    @staticmethod
-    def _schedule(name: str, value: Any) -> Schedule:
-        try:
-            schedule = Schedule.of(value)
-        except ValueError as exc:
-            raise ValueError(f"SOMConfig.{name}: {exc}") from None
-        except TypeError:
-            raise ValueError(
-                f"SOMConfig.{name} must be a Schedule, an (initial, final) pair or a number, "
-                f"got {value!r}"
-            ) from None
-        for end in (schedule.initial, schedule.final):
-            _number(name, end, float)
-        return schedule
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
@@ -200,7 +224,14 @@ class SOMConfig:
     @classmethod
     def of(cls, config: SOMConfig | None = None, **options: Any) -> SOMConfig:
         """``config`` (default: the defaults) with ``options`` changed; an unknown option name
-        is a ValueError listing the valid ones."""
+        is a ValueError listing the valid ones. The old name ``rule`` ("mrs", "brause") is read
+        as ``theta_target``."""
+        for old, (new, values) in RENAMED.items():
+            if old in options:
+                value = options.pop(old)
+                if value not in values:
+                    raise ValueError(f"unknown {old} {value!r}; valid: {', '.join(values)}")
+                options.setdefault(new, values[value])
         unknown = sorted(set(options) - set(cls.names()))
         if unknown:
             raise ValueError(
@@ -209,62 +240,22 @@ class SOMConfig:
         return replace(config or cls(), **options)
 
     def to_dict(self) -> dict[str, Any]:
-        """The options as JSON-ready entries, as the map's checkpoint stores them."""
-        out: dict[str, Any] = {
-            "lattice": list(self.lattice),
-            "input_dim": self.input_dim,
-            "rule": self.rule,
-            "averaging": self.averaging,
-            "refine": self.refine,
-            "abar": self.abar,
-            "t_max": self.t_max,
-            "schedules": {k: [getattr(self, k).initial, getattr(self, k).final] for k in SCHEDULES},
-            "a_init": self.a_init,
-            "min_dv": self.min_dv,
-            "protocol": self.protocol,
-        }
-        if self.continual is not None:
-            out["continual"] = asdict(self.continual)
-        if self.recover:  # absent when off: maps without it keep their files
-            out["recover"] = True
-        if self.sensing_noise:  # absent when 0, as recover
-            out["sensing_noise"] = self.sensing_noise
-        return out
+        """The options as JSON-ready entries, as the map's checkpoint stores them
+        (``learners.som.options.entries``: ``theta_target`` as ``rule`` = "mrs" or "brause",
+        ``continual``, ``recover`` and ``sensing_noise`` absent while default)."""
+        return entries(self)
 
     @classmethod
-    def from_dict(cls, entries: dict[str, Any]) -> SOMConfig:
+    def from_dict(cls, stored: dict[str, Any]) -> SOMConfig:
         """The configuration stored by :meth:`to_dict` (other entries are ignored).
 
-        Entries added in later releases may be missing (``abar``, ``protocol``, a schedule):
-        they take the value maps had before. Raises ValueError naming the entry that is missing
-        or of the wrong type or value (a damaged or foreign file).
+        Entries added in later releases may be missing (``abar``, ``protocol``, the ``gamma``
+        schedule): they take the value maps had before (each field's ``added_later``). Raises
+        ValueError naming the entry that is missing or of the wrong type or value (a damaged or
+        foreign file).
         """
-        types: dict[str, type | tuple[type, ...]] = {
-            "lattice": list, "input_dim": int, "rule": str, "averaging": str, "refine": bool,
-            "abar": str, "t_max": int, "schedules": dict, "a_init": (int, float),
-            "min_dv": (int, float), "protocol": str, "continual": dict, "recover": bool,
-            "sensing_noise": (int, float),
-        }  # fmt: skip
-        options: dict[str, Any] = {}
-        for key, kind in types.items():
-            if key not in entries:
-                if key in _ADDED_LATER or key in ("continual", "recover", "sensing_noise"):
-                    continue
-                raise ValueError(f"config entry {key!r} is missing")
-            value = entries[key]
-            if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-                raise ValueError(f"config entry {key!r} is {value!r}, not of type {kind}")
-            options[key] = value
-        options = {**_ADDED_LATER, **options}
-        schedules = options.pop("schedules")
-        for name, pair in schedules.items():
-            ok = isinstance(pair, list) and len(pair) == 2
-            if name not in SCHEDULES or not ok or any(isinstance(x, bool) for x in pair):
-                raise ValueError(f"config entry 'schedules' holds {name!r}: {pair!r}")
-            options[name] = tuple(pair)
-        if "continual" in options:
-            try:
-                options["continual"] = Continual(**options["continual"])
-            except TypeError as exc:
-                raise ValueError(f"config entry 'continual' is damaged ({exc})") from None
-        return cls(**options)
+        return from_entries(cls, stored)
+
+
+#: The schedules of the map, in the order its checkpoint stores them.
+SCHEDULES = schedule_names(SOMConfig)

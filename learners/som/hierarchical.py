@@ -95,6 +95,7 @@ from learners.persistence import CheckpointError, load_npz, save_npz
 from learners.pose_pixels import PIXELS, check_pose_pixels
 from learners.som.hierarchical_config import HierarchicalConfig
 from learners.som.lattice import Lattice
+from learners.som.options import check_counts, restored_generator
 
 KIND = "HierarchicalSOM"
 FORMAT_VERSION = 1
@@ -123,7 +124,6 @@ TRUST_GROWTH = 2.0
 #: The trust radius's factor after a fine move that beat the trial's best (and 1/2 after an
 #: undone one).
 TRUST_EXPAND = 2.0
-_BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
 
 
 class HierarchicalSOM(Learner):
@@ -196,7 +196,10 @@ class HierarchicalSOM(Learner):
         """ε, σ, ε', σ' and the exploration std at t = trials learned so far."""
         c = self.config
         frac = min(self.t, c.t_max) / c.t_max
-        return tuple(s.at(frac) for s in (c.eps, c.sigma, c.eps_out, c.sigma_out, c.explore))
+        eps, sigma, eps_out, sigma_out, explore = (
+            s.at(frac) for s in (c.eps, c.sigma, c.eps_out, c.sigma_out, c.explore)
+        )
+        return eps, sigma, eps_out, sigma_out, explore
 
     def features(self, u: np.ndarray) -> np.ndarray:
         """f(u) (..., 12): marker 1's pixels, then ``orientation_gain`` times markers 2 and 3
@@ -263,7 +266,7 @@ class HierarchicalSOM(Learner):
     def _broyden(self, dtheta: np.ndarray, df: np.ndarray) -> None:
         """Ā += (Δθ − Ā Δf) Δf^T / |Δf|² from the last two commands and what they gave."""
         df2 = float(df @ df)
-        if self.config.refine and df2 >= self.config.min_dv**2:
+        if self.config.refine and df2 >= self.config.min_dv**2 and self._abar is not None:
             self._abar += np.outer(dtheta - self._abar @ df, df) / df2
 
     def _pixels(self, name: str, x: np.ndarray) -> np.ndarray:
@@ -289,7 +292,7 @@ class HierarchicalSOM(Learner):
         f = self.features(self._pixels("u", u))
         if v is None:
             r, s = (int(i[0]) for i in self.winners(f[None]))
-            command = self.theta[r, s] + self.A[r, s] @ (f - self.centre(r, s))
+            command = self.theta[r, s] + self.A[r, s] @ (f - self.centre(np.array(r), np.array(s)))
             self._abar = self.A[r, s].copy()
             self._fv = self._cmd_before = self._best = None
             self._step = self.config.trust_radius if self._trust else 1.0
@@ -449,17 +452,9 @@ class HierarchicalSOM(Learner):
         entries, arrays = load_npz(path, KIND, FORMAT_VERSION)
         try:
             config = HierarchicalConfig.from_dict(entries)
-            t, skipped, state = entries["t"], entries["skipped"], entries["rng_state"]
-            if not isinstance(t, int) or isinstance(t, bool) or t < 0:
-                raise ValueError(f"t = {t!r} is not a count")
-            if not isinstance(skipped, dict) or set(skipped) != {"not_visible", "small_dv"}:
-                raise ValueError(f"skipped = {skipped!r} is not the two skip counts")
-            if not all(isinstance(n, int) and n >= 0 for n in skipped.values()):
-                raise ValueError(f"skipped = {skipped!r} holds counts that are not integers >= 0")
-            if state.get("bit_generator") not in _BIT_GENERATORS:
-                raise ValueError(f"unknown bit generator in {state!r}")
-            bit_generator = getattr(np.random, state["bit_generator"])()
-            bit_generator.state = state
+            check_counts(entries)
+            t, skipped = entries["t"], entries["skipped"]
+            bit_generator = restored_generator(entries["rng_state"])
             lower, upper = arrays["joint_lower"], arrays["joint_upper"]
             P, Q, J = config.n_positions, config.n_orientations, len(lower)
             shapes = {

@@ -4,7 +4,8 @@
 :class:`~learners.som.hierarchical.HierarchicalSOM`: its constructor takes them by name and its
 checkpoint stores :meth:`HierarchicalConfig.to_dict` and reads it back with
 :meth:`HierarchicalConfig.from_dict`. The meaning of every option is in the map's module
-docstring.
+docstring. Each field is declared once with its metadata (``learners/som/options.py``); the
+checkpoint entries and a training run's options are generated from the fields.
 """
 
 from __future__ import annotations
@@ -13,11 +14,18 @@ import math
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
-from learners.guards import option_number
+from learners.som.options import (
+    check_common,
+    entries,
+    from_entries,
+    number,
+    option,
+    positive_shape,
+    schedule_names,
+)
 from learners.som.schedules import Schedule
 
-#: The schedules of the map, in the order its checkpoint stores them.
-SCHEDULES = ("eps", "sigma", "eps_out", "sigma_out", "explore")
+_OWNER = "HierarchicalConfig"
 #: Leaves (position nodes × orientation nodes) a map may have: 10^6 leaves of a 6 × 12 local
 #: map hold about 0.6 GB.
 MAX_LEAVES = 1_000_000
@@ -44,17 +52,9 @@ DEFAULT_ORIENTATION_GAIN = 4.0
 DEFAULT_TRUST_RADIUS = 0.2
 
 
-def _number(name: str, value: Any, kind: type) -> Any:
-    """``value`` as ``kind`` (int or float), else ValueError naming the option."""
-    return option_number("HierarchicalConfig", name, value, kind)
-
-
 def _shape(name: str, value: Any) -> tuple[int, ...]:
-    try:
-        shape = tuple(_number(name, n, int) for n in value)
-    except TypeError:
-        shape = ()
-    if not shape or min(shape) < 1 or len(shape) > 3:
+    shape = positive_shape(_OWNER, name, value)
+    if not shape or len(shape) > 3:
         raise ValueError(
             f"HierarchicalConfig.{name} must be 1 to 3 positive sizes, e.g. (6, 6, 4), "
             f"got {value!r}"
@@ -95,26 +95,47 @@ class HierarchicalConfig:
         ValueError: one line naming the option and what it must be.
     """
 
-    position_lattice: tuple[int, ...] = (8, 8, 6)
-    orientation_lattice: tuple[int, ...] = (2, 2, 2)
-    image_size: tuple[int, int] = (320, 240)
-    t_max: int = DEFAULT_T_MAX
-    eps: Schedule = DEFAULT_EPS
-    sigma: Schedule = DEFAULT_SIGMA
-    eps_out: Schedule = DEFAULT_EPS_OUT
-    sigma_out: Schedule = DEFAULT_SIGMA_OUT
-    explore: Schedule = DEFAULT_EXPLORE
-    min_dv: float = DEFAULT_MIN_DV
-    orientation_gain: float = DEFAULT_ORIENTATION_GAIN
-    refine: bool = True
-    transport: bool = True
-    backtrack: bool = True
-    trust_radius: float = DEFAULT_TRUST_RADIUS
+    position_lattice: tuple[int, ...] = option(
+        (8, 8, 6), "shape of the lattice over the object's position (marker 1's pixels)",
+        run=True,
+    )  # fmt: skip
+    orientation_lattice: tuple[int, ...] = option(
+        (2, 2, 2), "shape of the lattice nested at every position node, over the orientation",
+        run=True,
+    )  # fmt: skip
+    image_size: tuple[int, int] = option((320, 240), "(width, height) px of both cameras")
+    t_max: int = option(DEFAULT_T_MAX, "trials over which the schedules fall to their final value")
+    eps: Schedule = option(DEFAULT_EPS, "epsilon(t) of the input-weight update")  # noqa: RUF009 (a field)
+    sigma: Schedule = option(DEFAULT_SIGMA, "sigma(t) of the input-weight update, lattice units")  # noqa: RUF009 (a field)
+    eps_out: Schedule = option(DEFAULT_EPS_OUT, "epsilon'(t) of the output (theta, A) update")  # noqa: RUF009 (a field)
+    sigma_out: Schedule = option(DEFAULT_SIGMA_OUT, "sigma'(t) of the output (theta, A) update")  # noqa: RUF009 (a field)
+    explore: Schedule = option(  # noqa: RUF009 (a field)
+        DEFAULT_EXPLORE, "std (rad) of the noise of exploratory (training) fine moves"
+    )
+    min_dv: float = option(
+        DEFAULT_MIN_DV, "trials whose sensed change |df| (px) is below are skipped"
+    )
+    orientation_gain: float = option(
+        DEFAULT_ORIENTATION_GAIN, "weight of the orientation features against the position ones"
+    )
+    refine: bool = option(
+        True, "correct the fine moves' map between fine moves of one target (Broyden)", run=True
+    )
+    transport: bool = option(True, "every leaf learns the winner's theta* moved to its centre")
+    backtrack: bool = option(
+        True, "undo a fine move after which the hand is seen no nearer the object",
+        added_later=True,
+    )  # fmt: skip
+    trust_radius: float = option(
+        DEFAULT_TRUST_RADIUS, "rad: no fine move turns a joint more (with backtrack; 0: halving)",
+        added_later=0.0,
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
             object.__setattr__(self, name, value)
 
+        check_common(self)
         put("position_lattice", _shape("position_lattice", self.position_lattice))
         put("orientation_lattice", _shape("orientation_lattice", self.orientation_lattice))
         leaves = math.prod(self.position_lattice) * math.prod(self.orientation_lattice)
@@ -127,45 +148,17 @@ class HierarchicalConfig:
         if len(size) != 2:
             raise ValueError(f"HierarchicalConfig.image_size must be (width, height), got {size}")
         put("image_size", size)
-        put("t_max", _number("t_max", self.t_max, int))
-        if self.t_max < 1:
-            raise ValueError(f"HierarchicalConfig.t_max must be >= 1, got {self.t_max}")
-        put("min_dv", _number("min_dv", self.min_dv, float))
-        if self.min_dv < 0:
-            raise ValueError(f"HierarchicalConfig.min_dv must be >= 0, got {self.min_dv}")
-        put("orientation_gain", _number("orientation_gain", self.orientation_gain, float))
-        if self.orientation_gain <= 0:
-            raise ValueError(
-                f"HierarchicalConfig.orientation_gain must be > 0, got {self.orientation_gain}"
-            )
-        put("trust_radius", _number("trust_radius", self.trust_radius, float))
-        if self.trust_radius < 0:
-            raise ValueError(
-                f"HierarchicalConfig.trust_radius must be >= 0 (rad), got {self.trust_radius}"
-            )
-        for name in ("refine", "transport", "backtrack"):
-            if not isinstance(getattr(self, name), bool):
+        for name, kind, least, strict in (
+            ("t_max", int, 1, False), ("min_dv", float, 0, False),
+            ("orientation_gain", float, 0, True), ("trust_radius", float, 0, False),
+        ):  # fmt: skip
+            value = number(_OWNER, name, getattr(self, name), kind)
+            if value < least or (strict and value == least):
                 raise ValueError(
-                    f"HierarchicalConfig.{name} must be True or False, got {getattr(self, name)!r}"
+                    f"HierarchicalConfig.{name} must be {'>' if strict else '>='} {least}, "
+                    f"got {value}"
                 )
-        for name in SCHEDULES:
-            put(name, self._schedule(name, getattr(self, name)))
-        for name in ("eps", "eps_out"):
-            if max(getattr(self, name).initial, getattr(self, name).final) > 1.0:
-                raise ValueError(f"{name} is a learning rate in [0, 1], got {getattr(self, name)}")
-
-    @staticmethod
-    def _schedule(name: str, value: Any) -> Schedule:
-        try:
-            schedule = Schedule.of(value)
-            for end in (schedule.initial, schedule.final):
-                _number(name, end, float)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(
-                f"HierarchicalConfig.{name} must be a Schedule, an (initial, final) pair or a "
-                f"number > 0, got {value!r} ({exc})"
-            ) from None
-        return schedule
+            put(name, value)
 
     @property
     def n_positions(self) -> int:
@@ -191,49 +184,19 @@ class HierarchicalConfig:
         return replace(config or cls(), **options)
 
     def to_dict(self) -> dict[str, Any]:
-        """The options as JSON-ready entries, as the map's checkpoint stores them."""
-        return {
-            "position_lattice": list(self.position_lattice),
-            "orientation_lattice": list(self.orientation_lattice),
-            "image_size": list(self.image_size),
-            "t_max": self.t_max,
-            "schedules": {k: [getattr(self, k).initial, getattr(self, k).final] for k in SCHEDULES},
-            "min_dv": self.min_dv,
-            "orientation_gain": self.orientation_gain,
-            "refine": self.refine,
-            "transport": self.transport,
-            "backtrack": self.backtrack,
-            "trust_radius": self.trust_radius,
-        }
+        """The options as JSON-ready entries, as the map's checkpoint stores them
+        (``learners.som.options.entries``)."""
+        return entries(self)
 
     @classmethod
-    def from_dict(cls, entries: dict[str, Any]) -> HierarchicalConfig:
+    def from_dict(cls, stored: dict[str, Any]) -> HierarchicalConfig:
         """The configuration stored by :meth:`to_dict`; ValueError naming an entry that is
         missing or of the wrong type (a damaged or foreign file). ``backtrack``, added after
         the first maps were saved, takes its default when missing; ``trust_radius``, added
-        later, takes 0 (the fine moves those maps were trained and measured with)."""
-        types: dict[str, type | tuple[type, ...]] = {
-            "position_lattice": list, "orientation_lattice": list, "image_size": list,
-            "t_max": int, "schedules": dict, "min_dv": (int, float),
-            "orientation_gain": (int, float), "refine": bool, "transport": bool,
-            "backtrack": bool, "trust_radius": (int, float),
-        }  # fmt: skip
-        options: dict[str, Any] = {}
-        for key, kind in types.items():
-            if key == "backtrack" and key not in entries:
-                continue
-            if key == "trust_radius" and key not in entries:
-                options[key] = 0.0
-                continue
-            value = entries.get(key)
-            if not isinstance(value, kind) or (kind is not bool and isinstance(value, bool)):
-                raise ValueError(f"config entry {key!r} is {value!r}, not of type {kind}")
-            options[key] = value
-        schedules = options.pop("schedules")
-        if sorted(schedules) != sorted(SCHEDULES):
-            raise ValueError(f"config entry 'schedules' names {sorted(schedules)}, not {SCHEDULES}")
-        for name, pair in schedules.items():
-            if not (isinstance(pair, list) and len(pair) == 2):
-                raise ValueError(f"config entry 'schedules' holds {name!r}: {pair!r}")
-            options[name] = tuple(pair)
-        return cls(**options)
+        later, takes 0 (the fine moves those maps were trained and measured with): each
+        field's ``added_later``."""
+        return from_entries(cls, stored)
+
+
+#: The schedules of the map, in the order its checkpoint stores them.
+SCHEDULES = schedule_names(HierarchicalConfig)

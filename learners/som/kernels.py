@@ -1,8 +1,10 @@
 """Compiled kernels (numba) of the Kohonen map's hot path: winner search, output averaging and
 the neighbourhood update, each one loop over the neurons of the winner's box.
 
-They compute the same formulas as the numpy reference in ``learners/som/controller.py``, term
-by term:
+Each is the compiled form of a plain numpy function, term by term: :func:`learn` of
+``update_rule.targets`` followed by ``update_rule.mrs_update`` (``tests/test_update_rule.py``
+checks them against each other), :func:`coarse` of ``VisuomotorSOM.coarse_output``, :func:`fine`
+of the fine move of ``protocols.MRS``:
     winner   s = argmin_r |w_r|² − 2 w_r·u
     coarse   θ0 = Σ_r g_r (θ_r + A_r (u − w_r)),  Ā = Σ_r g_r A_r,  g = h'/Σh'
     fine     θ_{k+1} = θ_k + Ā (u − v_k), Ā refined by a Broyden step
@@ -255,9 +257,11 @@ def learn(
     block_centre: np.ndarray,
     block_radius: np.ndarray,
 ) -> int:
-    """One trial's learning step in place around winner s (s < 0: search it), from the targets
-    θ* ("mrs": θ_s + A_s(u − v0), else θ1 + A_s(w_s − v1)) and A* = A_s + (Δθ − A_s Δv)Δv^T/|Δv|²
-    (+ ``noise_term`` A_s / |Δv|² when it is > 0, ``sensing_noise``), both taken before the update;
+    """One trial's learning step in place around winner s (s < 0: search it): the compiled form
+    of ``update_rule.targets`` and ``update_rule.mrs_update``, from the targets θ* (``mrs``,
+    "coarse-error": θ_s + A_s(u − v0), else "fine-error": θ1 + A_s(w_s − v1)) and
+    A* = A_s + (Δθ − A_s Δv)Δv^T/|Δv|² (+ ``noise_term`` A_s / |Δv|² when it is > 0,
+    ``sensing_noise``), both taken before the update;
     h = table_w[d²], h' = table_out[d²] (``Lattice.weights``: cut-off r² = len − 2).
 
     The inputs are checked first: u, v0, v1 against the input box ``box`` (2, D), θ0, θ1

@@ -27,12 +27,11 @@ kinematics nor the camera model is used. A hidden move is never learned from.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from learners.som.controller import VisuomotorSOM
+from learners.som.fine_memory import FineMemory
 
 #: Fractions of the way from the target to the middle of the map's inputs at which the detours
 #: aim when nothing has been seen yet, nearest first (docs/decisions.md says how they were
@@ -42,39 +41,41 @@ DETOUR_FRACTIONS = (0.1, 0.25, 0.5, 1.0)
 APPROACH_FRACTIONS = (0.5, 0.25, 0.0)
 
 
-def recovery_move(som: VisuomotorSOM, u: np.ndarray, attempt: int) -> np.ndarray | None:
-    """The clipped command (J,) of recovery ``attempt`` for target u, or None after the last.
+def recovery_move(
+    memory: FineMemory,
+    u: np.ndarray,
+    attempt: int,
+    middle: np.ndarray,
+    coarse: Callable[[np.ndarray], np.ndarray],
+    clip: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray | None:
+    """The clipped command (J,) of recovery ``attempt`` for the checked target u (D,), or None
+    after the last.
 
-    Sets the map's fine-move memory so that the next ``act(u, v)`` corrects from the recovery
-    pose (see the module docstring).
+    Args:
+        memory: the trial's fine-move memory; set so that the next ``act(u, v)`` corrects from
+            the recovery pose (see the module docstring).
+        middle: (D,) the mean of the w_r.
+        coarse: the map's coarse command (J,) for a sub-goal (D,), not touching ``memory``.
+        clip: joint angles (J,) clipped into the joint ranges.
     """
-    u = som._vector("u", u)
-    if som._cmd is None:
+    if memory.cmd is None:
         raise ValueError("a recovery move needs a coarse act(u) first (after reset)")
-    if som._seen_cmd is None:
+    if memory.seen_cmd is None or memory.seen_v is None or memory.abar is None:
         if attempt >= len(DETOUR_FRACTIONS):
             return None
-        middle = som._w.mean(axis=0)  # (D,)
         goal = u + DETOUR_FRACTIONS[attempt] * (middle - u)  # (D,), between u and the w_r
-        command = som.act_batch(goal[None])[0]  # (J,) clipped; the fine-move memory untouched
-        som._cmd, som._v, som._cmd_before = command.copy(), None, None
+        command = coarse(goal)  # (J,) clipped
+        memory.cmd, memory.v, memory.cmd_before = command.copy(), None, None
         return command
     if attempt >= len(APPROACH_FRACTIONS):
         return None
-    theta_s, v_s = som._seen_cmd, som._seen_v
+    theta_s, v_s = memory.seen_cmd, memory.seen_v
     goal = v_s + APPROACH_FRACTIONS[attempt] * (u - v_s)  # (D,)
-    command = som._clip(theta_s + som._abar @ (goal - v_s))  # (J,)
-    som._cmd = command.copy()
+    command = clip(theta_s + memory.abar @ (goal - v_s))  # (J,)
+    memory.cmd = command.copy()
     if APPROACH_FRACTIONS[attempt] > 0:
-        som._v, som._cmd_before = v_s.copy(), theta_s.copy()
+        memory.v, memory.cmd_before = v_s.copy(), theta_s.copy()
     else:
-        som._v, som._cmd_before = None, None
+        memory.v, memory.cmd_before = None, None
     return command
-
-
-def remember_seen(som: VisuomotorSOM, v: np.ndarray) -> None:
-    """Before a fine move from v: if both cameras saw the marker (v finite), the last command
-    and v are the last pose seen in this trial."""
-    v = np.asarray(v, dtype=float)
-    if som._cmd is not None and v.shape == (som.input_dim,) and np.isfinite(v).all():
-        som._seen_cmd, som._seen_v = som._cmd.copy(), v.copy()
