@@ -15,11 +15,6 @@ import numpy as np
 #: Shorthand of the arrays in signatures (shapes are in the docstrings).
 Array = np.ndarray
 
-#: The names of the trial loop's two ways of making fine moves (``Controller.protocol``, kept
-#: for ``envs.harness.trials`` until it reads ``Controller.fine_moves_need_sight``): "mrs", a
-#: fine move corrects from what was sensed, and "brause", it does not use what was sensed.
-PROTOCOLS = ("mrs", "brause")
-
 
 class Controller(ABC):
     """Camera coordinates in, absolute joint commands (radians) out.
@@ -55,16 +50,6 @@ class Controller(ABC):
         after a move whose marker a camera did not see, or None when no attempt is left; the
         next ``act(u, v)`` corrects from where this command took the arm (v sensed there)."""
         return None
-
-    @property
-    def protocol(self) -> str:
-        """``fine_moves_need_sight`` as the trial loop's protocol name ("mrs" or "brause")."""
-        return "mrs" if self.fine_moves_need_sight else "brause"
-
-    @property
-    def recover(self) -> bool:
-        """``recovers`` under the trial loop's first name."""
-        return self.recovers
 
     def act_batch(self, U: np.ndarray) -> np.ndarray:
         """Coarse commands for many targets: (N, 4) -> (N, J)."""

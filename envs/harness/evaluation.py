@@ -1,7 +1,7 @@
 """Held-out evaluation of a controller on a reach env: errors after each move, every trial counted.
 
 A trial stops when a marker is not seen (the controller cannot correct from a position it did not
-see), unless the controller recovers (``Controller.recover``; its extra moves are counted). The
+see), unless the controller recovers (``Controller.recovers``; its extra moves are counted). The
 error after every later move of a stopped trial is the error where it stopped: those values are
 carried forward, and every mean, median and percentile counts all trials. A trial whose
 target was not seen makes no move and keeps the error of its start pose.
@@ -106,12 +106,12 @@ class Wrapped(Controller):
         self.inner = inner
 
     @property
-    def protocol(self) -> str:
-        return self.inner.protocol
+    def fine_moves_need_sight(self) -> bool:
+        return self.inner.fine_moves_need_sight
 
     @property
-    def recover(self) -> bool:
-        return self.inner.recover
+    def recovers(self) -> bool:
+        return self.inner.recovers
 
     def recovery_move(self, u, attempt):
         return self.inner.recovery_move(u, attempt)
@@ -200,6 +200,6 @@ def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> E
         env.unwrapped.reach,
         timed.seconds / max(timed.calls, 1),
         made,
-        recoveries if controller.recover else None,
+        recoveries if controller.recovers else None,
         orientation if pose else None,
     )

@@ -5,13 +5,14 @@ gives θ0; after the move the cameras see the marker at v0; the controller corre
 the cameras see v1; and so on. A learner learns from (u, θ0, v0, θ1, v1).
 
 Brause's protocol (§3, ``protocol="brause"``) senses the same positions (x = u, x_I = v0,
-x_F = v1), but his fine move (3.7) does not use x_I: a trial goes on when a marker is not seen.
+x_F = v1), but his fine move (3.7) does not use x_I (``Controller.fine_moves_need_sight`` is
+False): a trial goes on when a marker is not seen.
 
-Recovery (a controller whose ``recover`` is True, e.g. ``VisuomotorSOM(recover=True)``): under
-"mrs", when a camera loses the marker after a move that is not the last, the loop asks the
-controller for recovery moves until both cameras see the marker again, and the next move
-corrects from there. Recovery moves are extra: they are counted in ``Trial.recovery_moves``,
-and the lists of a trial hold the coarse and fine moves only.
+Recovery (a controller whose ``recovers`` is True, e.g. ``VisuomotorSOM(recover=True)``): when
+the fine moves need sight and a camera loses the marker after a move that is not the last, the
+loop asks the controller for recovery moves until both cameras see the marker again, and the
+next move corrects from there. Recovery moves are extra: they are counted in
+``Trial.recovery_moves``, and the lists of a trial hold the coarse and fine moves only.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from learners.base import PROTOCOLS, Controller, Learner
+from learners.base import Controller, Learner
 
 
 @dataclass
@@ -39,7 +40,7 @@ class Trial:
     start_distance: float = float("nan")  # m, ground truth before the coarse move
     start_pixel_error: float = float("nan")  # px, before the coarse move
     start_pos: np.ndarray | None = None  # (3,) world m, the sensed point before the coarse move
-    recovery_moves: int = 0  # extra moves made to see the marker again (controller.recover)
+    recovery_moves: int = 0  # extra moves made to see the marker again (controller.recovers)
     #: rad, ground truth after move k, when the env reports the hand's orientation (grasp envs)
     orientation_errors: list[float] = field(default_factory=list)
     start_orientation_error: float = float("nan")  # rad, before the coarse move (grasp envs)
@@ -59,7 +60,6 @@ def run_trial(
     keep_arm: bool = False,
     on_move: FrameHook | None = None,
     explore: bool = False,
-    protocol: str | None = None,
 ) -> Trial:
     """Reset ``env`` (a new target) and make one coarse and ``fine_moves`` fine moves.
 
@@ -71,16 +71,14 @@ def run_trial(
             (for videos).
         explore: ask a learner for exploratory fine moves (training only; see
             ``VisuomotorSOM.act``).
-        protocol: "mrs" or "brause"; None: the controller's ``protocol``.
     Returns:
-        the :class:`Trial`. If a marker is not visible, sensed pixels are NaN; under "mrs" the
-        trial stops there (a controller cannot correct from a position it did not see) unless
-        the controller recovers (its recovery moves found a pose where the marker is seen),
-        under "brause" it goes on (the fine command (3.7) does not depend on what was sensed).
+        the :class:`Trial`. If a marker is not visible, sensed pixels are NaN; when the
+        controller's fine moves need sight (``Controller.fine_moves_need_sight``) the trial
+        stops there (it cannot correct from a position it did not see) unless the controller
+        recovers (``Controller.recovers``: its recovery moves found a pose where the marker is
+        seen); otherwise it goes on (Brause's fine command (3.7) does not use what was sensed).
     """
-    protocol = controller.protocol if protocol is None else protocol
-    if protocol not in PROTOCOLS:
-        raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
+    need_sight = controller.fine_moves_need_sight
     _, info = env.reset(options={"keep_arm": keep_arm})
     base = env.unwrapped
     trial = Trial(
@@ -114,8 +112,8 @@ def run_trial(
             trial.orientation_errors.append(info["orientation_error"])
         if on_move is not None:
             on_move(k, trial)
-        if protocol == "mrs" and not np.all(np.isfinite(sensed)):
-            if k == fine_moves or not controller.recover:
+        if need_sight and not np.all(np.isfinite(sensed)):
+            if k == fine_moves or not controller.recovers:
                 break
             sensed = _recover(env, controller, trial)
             if sensed is None:

@@ -18,7 +18,6 @@ import math
 from dataclasses import dataclass, fields, replace
 from typing import Any, TypeVar
 
-from learners.base import PROTOCOLS
 from learners.som.options import (
     check_common,
     entries,
@@ -39,6 +38,10 @@ __all__ = [
 AVERAGING = ("neighbourhood", "winner")
 #: Ā of the fine moves: MRS's σ'-average of the A_r, or this project's local fit at u.
 ABAR = ("average", "local-fit")
+#: How the map moves and learns: "mrs", the loop of Ritter, Martinetz & Schulten with this
+#: project's additions (a fine move corrects from what was sensed), or "brause", Brause's own
+#: (coarse Θ_c, fine (3.7), which does not use what was sensed; docs/map.md).
+PROTOCOLS = ("mrs", "brause")
 #: Options fixed by the shape of the learned arrays: a learned map cannot change them.
 SHAPE_OPTIONS = ("lattice", "input_dim")
 #: Neurons a lattice may have: 10^7 neurons of 4 inputs and 6 joints hold about 2.7 GB.
