@@ -121,12 +121,7 @@ def find_cycles(type_checking: bool) -> list[list[str]]:
 
 
 #: Cycles that only the type checker's imports close, each with the reason it is still there.
-TYPE_CHECKING_CYCLES_ALLOWED = {
-    ("envs.studies.rl_comparison", "envs.studies.rl_runs", "envs.studies.rl_comparison"): (
-        "envs/studies, not the map's part of issue 33: rl_comparison annotates with "
-        "rl_runs.Store, and rl_runs imports rl_comparison"
-    ),
-}
+TYPE_CHECKING_CYCLES_ALLOWED: dict[tuple[str, ...], str] = {}
 
 
 def test_module_level_imports_have_no_cycle():

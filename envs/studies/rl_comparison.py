@@ -16,7 +16,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -26,10 +26,19 @@ from envs.harness.training import RunConfig, initial_grasp_map, initial_map
 from envs.harness.trials import learn_from, run_trial
 from envs.reach import MAX_EPISODE_STEPS
 
-if TYPE_CHECKING:
-    from envs.studies.rl_runs import Store
-
 METHODS = ("map", "sac_her", "sac", "ppo", "sac_pixels")
+
+
+class Store(Protocol):
+    """What a resumable SB3 run needs of its folder (``envs.studies.rl_runs.Store`` is one)."""
+
+    def resume(self, method: str, venv: Any) -> tuple[Any, Any, Curve] | None: ...
+
+    def save_model(self, model: Any, venv: Any, train_seconds: float) -> None: ...
+
+    def save_curve(self, curve: Curve) -> None: ...
+
+
 THRESHOLDS = (0.010, 0.005, 0.001)  # m: report the steps needed to reach these mean distances
 #: m: success curves, the fraction of held-out episodes whose final distance is below each.
 SUCCESS_THRESHOLDS = (0.005, 0.010, 0.020)
