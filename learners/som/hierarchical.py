@@ -1,84 +1,11 @@
 """The hierarchical visuomotor map: the hand's position and orientation learned from the cameras.
 
-Martinetz & Schulten (IJCNN 1990, "Hierarchical neural net for learning control of a robot's arm
-and gripper"; Ritter, Martinetz & Schulten 1992) nest a 2-D square lattice for the gripper's
-orientation at every node of a 3-D cubic lattice for the object's position, and learn both with
-Kohonen's rule and the output learning of the visuomotor map from the robot's own trial moves.
-Here the object is a frame of three markers whose pose the cameras see in 12 pixels
-u = (marker 1, marker 2, marker 3), each (u_left, v_left, u_right, v_right).
-
-Features. f(u) = (p, g·o): p = marker 1's four pixels (the object's position), o = the eight
-pixel offsets of markers 2 and 3 from marker 1 (its orientation, scaled by its depth), g =
-``orientation_gain``. f is an invertible linear map of u, so a local linear map on f is one on
-u. The gain evens out how strongly the joints show in f (the markers sit closer together than
-the hand travels, so turning the wrist moves o less than moving the arm moves p).
-
-Lattices. Position nodes r of ``position_lattice`` hold w_r (4,); at every r a nested lattice
-of ``orientation_lattice`` holds w_rs (8,) over g·o. A leaf (r, s) holds θ_rs (J,) and a local
-linear map A_rs (J, 12) ≈ ∂θ/∂f. Departure from the paper: the object here turns about three
-axes (a cylinder's symmetry left two), so the nested lattice is 3-D by default; any shape of
-1-3 axes may be chosen.
-
-Moving (``act``):
-    winners   r = argmin |p − w_r|,  s = argmin_s |g·o − w_rs|,  c_rs = (w_r, w_rs)
-    coarse    θ0 = θ_rs + A_rs (f(u) − c_rs)
-    fine      θ_{k+1} = θ_k + Ā (f(u) − f(v_k)),  v_k sensed after θ_k (MRS's fine move);
-              the hand's markers coincide with the object's when it grasps, so f(u) − f(v) → 0
-              exactly at the goal pose. Ā starts as A_rs; ``refine=True`` (not in the papers,
-              as the map's option of that name) lets it take the Broyden step of the previous
-              fine move, Ā += (Δθ − ĀΔf) Δf^T / |Δf|², from the second fine move on.
-    backtrack ``backtrack=True`` (not in the papers): a fine move after which the cameras see
-              the hand farther from the object than G times the trial's best (|f(u) − f(v)|
-              against min_k |f(u) − f(v_k)|) is undone: the next fine move starts again from
-              the best pose seen, θ_b, f(v_b). Near the wrist singularity (θ5 ≈ 0, where only
-              θ4 + θ6 is defined) Ā can be far off, and without this a few trials wander off.
-              With ``trust_radius`` = 0 (the first releases') G = 1.5 and the step is halved at
-              every undone move: θ_{k+1} = θ_b + 2^-n Ā (f(u) − f(v_b)).
-    trust     ``trust_radius`` = ρ0 > 0 (with ``backtrack``; the default): a trust region in
-              joint space instead of the halving. With d = Ā (f(u) − f(v_b)),
-                  θ_{k+1} = θ_b + min(1, ρ_k / max_j |d_j|) d,
-              ρ_k starts at ρ0 at the coarse move, doubles after a fine move that beat the
-              trial's best and, after an undone one (G = 2), becomes half the smaller of ρ_k
-              and the undone step's largest joint change. Near the singularity the
-              leaf's Ā asks for large turns of joints 4 and 6 that the linear map does not
-              hold over; capped, the fine moves stay near the wrist configuration they started
-              on and let the Broyden step correct Ā on the way.
-
-Learning (``learn``), one trial (u, θ0, v0, θ1, v1), Δθ = θ1 − θ0, Δf = f(v1) − f(v0):
-    w_r'     += ε h_rr' (p − w_r')                                   (Kohonen, position lattice)
-    w_r's'   += ε h_rr' h_ss' (g·o − w_r's')      (nested lattices; the same s' at every r')
-    θ* = θ_rs + A_rs (f(u) − f(v0))                                                    (MRS)
-    A* = A_rs + (Δθ − A_rs Δf) (C⁻¹Δf)^T / (Δf^T C⁻¹ Δf)            (Widrow-Hoff, whitened)
-    θ_r's'   += ε' h'_rr' h'_ss' (θ*_r's' − θ_r's'),  A_r's' likewise towards A*
-with Gaussian neighbourhoods h = exp(−d²/2σ²) in each lattice's own units (σ for w, σ' for the
-outputs), the product coupling leaves of neighbouring position nodes that sit at the same place
-of their nested lattices. θ are clipped into the joint ranges. Two departures from MRS, both
-for the six joints' sake:
-    whitening   C is the running mean of Δf Δf^T over the trials (``df_cov``, regularised):
-                the plain step (C = I) learns a direction at a speed ∝ how far the markers
-                move along it, so the wrist's directions, which move them least, lagged. Like
-                the plain step it makes A* Δf = Δθ exactly.
-    transport   ``transport=True``: θ*_r's' = θ* + A* (c_r's' − c_rs), the winner's estimate
-                moved along A* from the winner's centre (before the update) to each leaf's own
-                centre (after it). MRS give every neighbour θ* itself, which pulls θ_r's' towards
-                the joints of another place and leaves θ_rs off its own centre until σ' is
-                small; ``transport=False`` is MRS's rule.
-Later pairs (``learn(..., coarse=False)``; :func:`envs.harness.trials.learn_from` with
-``pairs`` = k > 1, not in the papers): a training trial of a coarse and k exploratory fine
-moves is learned pair by pair, (θ0, v0) → (θ1, v1) as above, then every (θ_k, v_k) →
-(θ_{k+1}, v_{k+1}) with the same target u (and so u's winner (r, s)):
-    θ* = θ_k + A_rs (c_rs − f(v_k))      (θ_k's sighting moved to the winner's centre along A_rs)
-    A*, C and the output updates as above; w_r, w_rs and t stay (the Kohonen step and the
-    schedules count trials, and the budget is counted in trials).
-For the first pair θ_k + A_rs (c_rs − f(v0)) is MRS's θ* itself when θ0 is the unclipped coarse
-move; for later ones MRS's form θ_rs + A_rs (f(u) − f(v_k)) would pull θ_rs towards itself as
-v_k nears u. This adds k − 1 Widrow-Hoff steps per trial along the fine moves' own directions
-(envs/studies/pose_tail.py measured k = 1-4 on validation objects).
-What the map starts from: the joint ranges, one taught pose (every θ_rs starts there), the image
-size (w_r start uniformly in the image, w_rs uniformly within a quarter image of zero) and
-A = 0. A starts learning from the exploration noise of training fine moves (``explore=True``
-adds N(0, explore(t)²) rad to every joint), which also excites the directions the map's own
-moves would never try.
+A 3-D lattice for the object's position with a lattice for its orientation nested at every node
+(Martinetz & Schulten 1990); each leaf holds joint angles and a local linear map from the
+cameras' features of the three markers to the joints. ``act`` makes the coarse move and the fine
+moves (with a trust region in joint space), ``learn`` one pair of moves. The equations, and
+where this map follows the paper and where it departs, are in docs/map.md ("The hierarchical
+map of the grasp task").
 """
 
 from __future__ import annotations
