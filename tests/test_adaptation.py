@@ -23,8 +23,8 @@ IMPROVED = 0.8  # the learning map's error after the run, at most this fraction 
 
 @pytest.fixture(scope="module")
 def run():
-    run = RunConfig(
-        "RiacsReach-v0", trials=2000, lattice=(6, 4, 3), eval_every=2000, eval_trials=150
+    run = RunConfig.of(
+        env="RiacsReach-v0", trials=2000, lattice=(6, 4, 3), eval_every=2000, eval_trials=150
     )
     config = AdaptConfig(run, after_trials=400, every=200)
     som, _ = pretrain(config)

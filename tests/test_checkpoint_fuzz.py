@@ -171,7 +171,7 @@ def test_a_run_with_crafted_settings_is_refused_by_resume_and_evaluate(
     from envs.harness.training import RunConfig, Trainer
 
     out = tmp_path / "run"
-    Trainer(RunConfig(trials=1, lattice=(2, 2, 2), eval_every=1, eval_trials=2), out).close()
+    Trainer(RunConfig.of(trials=1, lattice=(2, 2, 2), eval_every=1, eval_trials=2), out).close()
     path = out / "checkpoint.npz"
     run, sim_state = read_unit(path)
     write_unit(path, VisuomotorSOM.load(path), {**run, "config": {**run["config"], field: value}},

@@ -32,7 +32,7 @@ from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
 from models.puma560.grasp import READY, orientation_angle
 
-POSE = RunConfig(env="PumaGrasp-v0", trials=60, lattice=(3, 2, 2), orientation_lattice=(2,),
+POSE = RunConfig.of(env="PumaGrasp-v0", trials=60, lattice=(3, 2, 2), orientation_lattice=(2,),
                  eval_every=20, eval_trials=8, fine_moves=2, seed=2)  # fmt: skip
 #: The keys of a reach summary, in order, as before the grasp envs (the demo compares them).
 REACH_KEYS = ["trials", "complete_trials", "complete_fraction", "made_fraction", "mean_mm",
@@ -102,16 +102,16 @@ def test_evaluate_reports_the_hands_orientation_error_against_the_closed_form():
 def test_reach_runs_and_their_sweep_cells_keep_their_names():
     """The names main gave these cells before the grasp envs (their hash covers the config)."""
     assert cell_name(RunConfig()) == "riacs_12x7x4_mrs_mrs_True_project_kinematic_0_55963bc8"
-    puma = RunConfig(env="PumaReach-v0", lattice=(4, 3, 2), seed=3)
+    puma = RunConfig.of(env="PumaReach-v0", lattice=(4, 3, 2), seed=3)
     assert cell_name(puma) == "puma_4x3x2_mrs_mrs_True_project_kinematic_3_00af8fb5"
 
 
 def test_run_configs_refuse_options_of_the_other_map():
     with pytest.raises(ValueError, match="orientation_lattice is for the grasp envs"):
-        RunConfig(orientation_lattice=(2, 2))
+        RunConfig.of(orientation_lattice=(2, 2))
     with pytest.raises(ValueError, match=r"option\(s\) protocol do not apply"):
-        RunConfig(env="PumaGrasp-v0", protocol="brause")
-    config = RunConfig(env="PumaGrasp-v0", lattice=(4, 4, 3)).map_config()
+        RunConfig.of(env="PumaGrasp-v0", protocol="brause")
+    config = RunConfig.of(env="PumaGrasp-v0", lattice=(4, 4, 3)).map_config()
     assert config.position_lattice == (4, 4, 3) and config.orientation_lattice == (2, 2, 2)
 
 

@@ -178,7 +178,7 @@ def test_recover_is_stored_only_when_on_and_checked():
 
 
 #: A small run in the realistic setting: foveated rendering and servo moves.
-REALISTIC = RunConfig(sensing="foveated", control="servo", trials=120, lattice=(4, 3, 2),
+REALISTIC = RunConfig.of(sensing="foveated", control="servo", trials=120, lattice=(4, 3, 2),
                       eval_every=60, eval_trials=20, seed=4)  # fmt: skip
 
 

@@ -156,7 +156,7 @@ def test_a_map_saved_with_it_on_goes_on_bit_identically(kernel, tmp_path):
 def test_a_map_learning_from_whole_rendered_images_with_it_improves_with_trials():
     """Whole 320×240 rendered images, kinematic moves; the held-out distances are the
     simulator's ground truth (``info["distance"]``), not what the cameras sensed."""
-    config = RunConfig(sensing="render", trials=300, lattice=(4, 3, 2), seed=6)
+    config = RunConfig.of(sensing="render", trials=300, lattice=(4, 3, 2), seed=6)
     env, held_out = config.make_env(), config.make_env()
     try:
         som = initial_map(config, env, sensing_noise=0.1)
@@ -176,7 +176,7 @@ def test_a_map_learning_from_whole_rendered_images_with_it_improves_with_trials(
 
 
 def test_a_run_with_it_resumes_bit_identically_and_runs_without_it_keep_their_files(tmp_path):
-    config = RunConfig(trials=80, lattice=(4, 3, 2), eval_every=40, eval_trials=5, seed=3,
+    config = RunConfig.of(trials=80, lattice=(4, 3, 2), eval_every=40, eval_trials=5, seed=3,
                        sensing_noise=0.1)  # fmt: skip
     whole = tmp_path / "whole"
     trainer = Trainer(config, whole)

@@ -80,7 +80,7 @@ def test_cli_lattice_is_written_12x7x4(tmp_path, capsys):
 
 
 def test_resume_conflicts_print_sizes_and_lattices_the_one_way():
-    stored = RunConfig(lattice=(12, 7, 4))
+    stored = RunConfig.of(lattice=(12, 7, 4))
     args = argparse.Namespace(lattice=(4, 3, 2), image_size=(640, 480))
     assert train.resume_conflicts(stored, args, {"lattice", "image_size"}) == [
         "--lattice 4x3x2 (the run has 12x7x4)",
@@ -98,7 +98,7 @@ def test_sweep_image_sizes_are_width_by_height_and_checked():
 
 def test_checkpoints_keep_their_image_size_old_and_new(tmp_path):
     out = tmp_path / "run"
-    trainer = Trainer(RunConfig(width=160, height=120, **TINY), out)
+    trainer = Trainer(RunConfig.of(width=160, height=120, **TINY), out)
     trainer.close()
     path = Path(out) / CHECKPOINT_FILE
     assert (Trainer.stored_config(out).width, Trainer.stored_config(out).height) == (160, 120)

@@ -19,7 +19,7 @@ import sys
 import tempfile
 import threading
 import time
-from dataclasses import asdict, replace
+from dataclasses import replace
 from pathlib import Path
 
 import gymnasium as gym
@@ -61,7 +61,7 @@ def test_grid_expands_to_every_combination_with_parsed_values():
     assert {c.env for c in configs} == {"RiacsReach-v0", "PumaReach-v0"}
     assert {c.lattice for c in configs} == {(3, 3, 3), (12, 7, 4)}
     assert {c.seed for c in configs} == {0, 1}
-    assert expand({"refine": "false", "image_size": "640x480"})[0] == RunConfig(
+    assert expand({"refine": "false", "image_size": "640x480"})[0] == RunConfig.of(
         refine=False, width=640, height=480
     )
     assert len({cell_name(c) for c in configs}) == 8  # one folder per cell
@@ -90,8 +90,9 @@ def test_pose_cells_take_the_pose_maps_lattices_and_count_leaves_as_neurons():
     lattices 8x8x6 (position) and 2x2x2 (orientation) unless the grid gives them, never the
     reach map's 12x7x4; trials_per_neuron counts leaves (position × orientation nodes)."""
     puma, grasp = expand({"robot": ["puma", "grasp"]})
-    assert (puma.env, puma.lattice, puma.orientation_lattice) == ("PumaReach-v0", (12, 7, 4), None)
-    assert (grasp.env, grasp.lattice, grasp.orientation_lattice) == (
+    assert (puma.env, puma.lattice) == ("PumaReach-v0", (12, 7, 4))
+    assert "orientation_lattice" not in puma.settings()
+    assert (grasp.env, grasp.lattice, grasp.map.orientation_lattice) == (
         "PumaGrasp-v0",
         (8, 8, 6),
         (2, 2, 2),
@@ -100,7 +101,7 @@ def test_pose_cells_take_the_pose_maps_lattices_and_count_leaves_as_neurons():
     assert expand({"robot": "grasp", "orientation_lattice": 2}) == [grasp]  # the same cell
     cells = expand({"robot": "grasp", "lattice": [2, "3x3x2"], "orientation_lattice": [3, "2x2x1"],
                     "trials": 100, "trials_per_neuron": 2})  # fmt: skip
-    assert [(c.lattice, c.orientation_lattice) for c in cells] == [
+    assert [(c.lattice, c.map.orientation_lattice) for c in cells] == [
         ((2, 2, 2), (3, 3, 3)), ((2, 2, 2), (2, 2, 1)),
         ((3, 3, 2), (3, 3, 3)), ((3, 3, 2), (2, 2, 1)),
     ]  # fmt: skip
@@ -132,7 +133,7 @@ from pathlib import Path
 import envs
 from envs.studies.sweep_grid import run_cell
 from envs.harness.training import RunConfig
-print(json.dumps(run_cell(RunConfig(**json.loads(sys.argv[1])), Path(sys.argv[2]), 100)))
+print(json.dumps(run_cell(RunConfig.from_stored(json.loads(sys.argv[1])), Path(sys.argv[2]), 100)))
 """
 
 
@@ -151,7 +152,7 @@ def test_two_processes_on_one_cell_take_turns(tmp_path):
     folder.parent.mkdir(parents=True)
     lock = folder.with_name(folder.name + LOCK_SUFFIX)
     held = take_lock(lock, wait=False)  # a third writer, holding the cell while both start
-    command = [sys.executable, "-c", RUN_CELL, json.dumps(asdict(config)), str(folder)]
+    command = [sys.executable, "-c", RUN_CELL, json.dumps(config.to_stored()), str(folder)]
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     writers = [subprocess.Popen(command, stdout=subprocess.PIPE, env=env) for _ in range(2)]
     deadline = time.monotonic() + TIMEOUT_S
@@ -250,7 +251,8 @@ def test_worker_killed_mid_cell_is_retried_and_resumes_to_the_unbroken_result(un
 
 def test_configs_differ_only_where_the_grid_says():
     a, b = expand(GRID)
-    assert replace(a, lattice=b.lattice) == b
+    assert replace(a, map=b.map) == b and a.settings().keys() == b.settings().keys()
+    assert {k for k, v in a.settings().items() if b.settings()[k] != v} == {"lattice"}
 
 
 def _free_port() -> int:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -21,7 +22,7 @@ from learners.som.controller import VisuomotorSOM
 
 from helpers import forbid_the_exact_model
 
-SMALL = RunConfig(trials=60, lattice=(4, 3, 2), eval_every=20, eval_trials=10, seed=3)
+SMALL = RunConfig.of(trials=60, lattice=(4, 3, 2), eval_every=20, eval_trials=10, seed=3)
 
 
 def _arrays(path):
@@ -89,7 +90,7 @@ def test_a_run_folder_of_the_old_checkpoint_name_resumes_under_it(uninterrupted,
 def test_resume_after_a_crash_redoes_from_the_last_periodic_checkpoint(tmp_path):
     """A crash leaves the checkpoint of trial 20 and metrics up to trial 30 with a torn last
     line; the resumed run drops both and ends as an unbroken run does."""
-    config = RunConfig(**{**SMALL.__dict__, "trials": 40, "eval_every": 10})
+    config = replace(SMALL, trials=40, eval_every=10)
     reference = _train(config, tmp_path / "reference", checkpoint_every=20).out
 
     def crash(trial, running):
@@ -132,7 +133,7 @@ def test_metrics_rows_hold_errors_per_move_in_mm_percent_and_pixels(uninterrupte
 
 def test_same_seed_same_map_and_different_seed_different_map(uninterrupted, tmp_path):
     _train(SMALL, tmp_path / "same", checkpoint_every=1000)
-    _train(RunConfig(**{**SMALL.__dict__, "seed": 4}), tmp_path / "other", checkpoint_every=1000)
+    _train(replace(SMALL, seed=4), tmp_path / "other", checkpoint_every=1000)
     same = _arrays(tmp_path / "same" / CHECKPOINT_FILE)
     np.testing.assert_array_equal(same[0], _arrays(uninterrupted / CHECKPOINT_FILE)[0])
     assert not np.array_equal(_arrays(tmp_path / "other" / CHECKPOINT_FILE)[0], same[0])
@@ -168,7 +169,7 @@ def test_the_map_learns_without_the_exact_model(monkeypatch, tmp_path):
     camera model raise if touched, and training (with rendered cameras) still runs."""
     forbid_the_exact_model(monkeypatch)
     monkeypatch.setattr(training, "INIT_TARGETS", 20)  # fewer renders: a quicker test
-    config = RunConfig(env="PumaReach-v0", sensing="render", trials=12, lattice=(3, 2, 2),
+    config = RunConfig.of(env="PumaReach-v0", sensing="render", trials=12, lattice=(3, 2, 2),
                        eval_every=12, eval_trials=3, seed=1)  # fmt: skip
     trainer = Trainer(config, tmp_path)
     try:

@@ -37,6 +37,7 @@ from envs.studies.adaptation import (
 )
 from envs.studies.adaptation_media import curves_figure, phases_video
 from learners.persistence import write_atomic
+from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
 
 
@@ -66,7 +67,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--warmup", type=cli.positive_int, default=300)
     options.ABAR_OPTION.add(
         parser,
-        default=RunConfig.abar,
+        default=SOMConfig.abar,
         help="Ā of the evaluations' fine moves: local-fit (this project's) or average (MRS)",
     )
     cli.add_count(parser, "--video-trials", 3, "0: no video", least=0)
@@ -80,9 +81,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     video_change = next((c for c in args.changes if c != "none"), None)
     rows = []
     for env_id in args.envs:
-        run = RunConfig(
-            env_id, args.sensing, args.control, args.seed, args.train_trials,
-            eval_every=args.pre_every, eval_trials=args.eval_trials, abar=args.abar,
+        run = RunConfig.of(
+            env=env_id, sensing=args.sensing, control=args.control, seed=args.seed,
+            trials=args.train_trials, eval_every=args.pre_every, eval_trials=args.eval_trials,
+            abar=args.abar,
         )  # fmt: skip
         base = AdaptConfig(run, after_trials=args.after, every=args.every)
         folder = args.out / env_id

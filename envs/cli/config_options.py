@@ -26,6 +26,7 @@ from dataclasses import MISSING, Field, fields
 from typing import Any
 
 from envs.cli import common as cli
+from envs.sizes import format_lattice
 
 #: The metadata keys read here ("added_later", for old checkpoints, is the config's own).
 HELP, CHOICES, RUN = "help", "choices", "run"
@@ -107,6 +108,7 @@ def add_config_options(
     *,
     skip: Iterable[str] = (),
     defaults: Mapping[str, Any] | None = None,
+    notes: Mapping[str, str] | None = None,
 ) -> list[str]:
     """Add a flag to ``parser`` for every field of ``config_cls`` marked ``"run": True``.
 
@@ -114,6 +116,7 @@ def add_config_options(
         skip: fields to leave out (a program that takes them otherwise).
         defaults: a program's own defaults by field name, instead of the fields' (None: the
             program decides after parsing, e.g. by env).
+        notes: text added to a field's help, by field name (what the program does with it).
     Returns:
         The names of the fields (the destinations of the flags), in the dataclass's order.
     Raises:
@@ -121,8 +124,8 @@ def add_config_options(
             ValueError: a name in ``skip`` or ``defaults`` that is no marked field.
     """
     marked = run_fields(config_cls)
-    own = dict(defaults or {})
-    unknown = (set(skip) | set(own)) - {f.name for f in marked}
+    own, noted = dict(defaults or {}), dict(notes or {})
+    unknown = (set(skip) | set(own) | set(noted)) - {f.name for f in marked}
     if unknown:
         valid = ", ".join(f.name for f in marked)
         raise ValueError(f"{sorted(unknown)} are no run fields of {config_cls.__name__}: {valid}")
@@ -134,6 +137,12 @@ def add_config_options(
         settings = _settings(f, hints[f.name])
         if f.name in own:
             settings["default"] = own[f.name]
+        if f.name in noted:
+            settings["help"] = f"{settings.get('help', '')} ({noted[f.name]})".lstrip()
+        elif settings["default"] is not None and settings.get("action") is None:
+            shown = settings["default"]  # BooleanOptionalAction shows its own default
+            shown = format_lattice(shown) if isinstance(shown, tuple) else shown
+            settings["help"] = f"{settings.get('help', '')} (default: {shown})".lstrip()
         parser.add_argument(flag(f), **settings)
         names.append(f.name)
     return names

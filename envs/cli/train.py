@@ -6,7 +6,8 @@
 
 On PumaGrasp-v0 (the hand's position and orientation) it trains the hierarchical map: --lattice
 is its position lattice (default 8x8x6) and --orientation-lattice the lattice nested at every
-position node (default 2x2x2); --rule, --protocol and --abar belong to the reach map only. The
+position node (default 2x2x2); --theta-target (--rule), --protocol, --abar and --sensing-noise
+belong to the reach map only. The
 held-out evaluations then also give the orientation error in degrees.
 
 Writes OUT/checkpoint.npz (the checkpoint: the map, where the run stands, the simulation state; it
@@ -23,8 +24,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import fields
+from collections.abc import Callable
+from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Any
 
 from tqdm import tqdm
 
@@ -32,16 +35,23 @@ import envs  # noqa: F401  (registers the envs)
 from envs import sizes
 from envs.cli import common as cli
 from envs.cli import options
+from envs.cli.config_options import add_config_options
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness.checkpoint import checkpoint_path
 from envs.harness.stopping import SignalStop, StopRequested
-from envs.harness.training import RESUMABLE, TRAINING_PAIRS, RunConfig, Trainer
+from envs.harness.training import (
+    REACH_ONLY,
+    RESUMABLE,
+    SETTINGS,
+    TRAINING_PAIRS,
+    RunConfig,
+    Trainer,
+)
 from learners.persistence import writing
-from learners.som.config import RULES
+from learners.som.config import RENAMED, SOMConfig
 from learners.som.hierarchical_config import HierarchicalConfig
+from learners.som.options import run_key, run_options, run_spelling
 from models.puma560.grasp import WIDE
-
-_GRASP_MAP = HierarchicalConfig()
 
 #: The progress bar's label while training, and while the map is evaluated on held-out targets
 #: (before the first trial, and every --eval-every trials), which the bar does not count.
@@ -51,23 +61,34 @@ EVALUATING = "train: held-out evaluation ({targets} targets)"
 
 def _text(value: object) -> str:
     """A setting as it is written on the command line."""
-    return sizes.format_lattice(value) if isinstance(value, tuple) else str(value)
+    return sizes.format_lattice(value) if isinstance(value, (tuple, list)) else str(value)
 
 
 def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str]) -> list[str]:
     """Options given with --resume that differ from the run's and may not change."""
+    ours = {f.name: getattr(args, f.name) for f in fields(RunConfig) if hasattr(args, f.name)}
+    ours |= map_settings(args, given)
+    settings = stored.settings()
     out = []
-    for f in fields(RunConfig):
-        if f.name in given and f.name not in RESUMABLE:
-            ours, theirs = getattr(args, f.name), getattr(stored, f.name)
-            if ours != theirs:
-                name = f.name.replace("_", "-")
-                out.append(f"--{name} {_text(ours)} (the run has {_text(theirs)})")
+    for dest in sorted(given):
+        key = _MAP_FIELDS[dest].run_key if dest in _MAP_FIELDS else dest
+        if key in RESUMABLE or key not in ours:
+            continue
+        mine, theirs = _listed(ours[key]), _listed(settings.get(key, SETTINGS.get(key)))
+        if mine != theirs:
+            shown = _MAP_FIELDS[dest].shown if dest in _MAP_FIELDS else _text
+            flag = "--" + dest.replace("_", "-")
+            out.append(f"{flag} {shown(mine)} (the run has {shown(theirs)})")
     size = (stored.width, stored.height)  # --image-size WIDTHxHEIGHT sets both fields
     if "image_size" in given and tuple(args.image_size) != size:
-        ours, theirs = sizes.format_size(*args.image_size), sizes.format_size(*size)
-        out.append(f"--image-size {ours} (the run has {theirs})")
+        ours_size, theirs_size = sizes.format_size(*args.image_size), sizes.format_size(*size)
+        out.append(f"--image-size {ours_size} (the run has {theirs_size})")
     return out
+
+
+def _listed(value: Any) -> Any:
+    """Lattices as a run's settings spell them (lists)."""
+    return list(value) if isinstance(value, tuple) else value
 
 
 def main(argv: list[str] | None = None) -> Path:
@@ -76,7 +97,7 @@ def main(argv: list[str] | None = None) -> Path:
     options.ENV.add(p, default=d.env)
     options.TRIALS.add(p, default=d.trials)
     options.SEED.add(p, default=d.seed)
-    add_map_options(p, d)
+    add_map_options(p)
     options.ORIENTATIONS.add(p, note=f"default {WIDE.spec()}; ball:30: the first releases'")
     p.add_argument("--training-pairs", type=cli.positive_int,
                    help=f"PumaGrasp-v0: exploratory fine moves per training trial, each learned "
@@ -98,12 +119,17 @@ def main(argv: list[str] | None = None) -> Path:
         if getattr(args, flag) is not None and not grasp_env and not args.resume:
             name = "--" + flag.replace("_", "-")
             cli.fail(f"{name} is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
-    if args.lattice is None:
-        args.lattice = _GRASP_MAP.position_lattice if grasp_env else d.lattice
+    given = cli.given_options(p, argv)
+    reach_only = sorted(d for d in given if d in _REACH_FLAGS)
+    if grasp_env and reach_only and not args.resume:
+        flags = ", ".join("--" + d.replace("_", "-") for d in reach_only)
+        cli.fail(
+            f"{flags}: the reach map's option(s) do not apply to {args.env}'s hierarchical "
+            "map; leave them out"
+        )
 
     with SignalStop() as stop:
         if args.resume:
-            given = cli.given_options(p, argv)
             if args.force:
                 cli.fail("--force starts a run over; it cannot be combined with --resume")
             conflicts = resume_conflicts(Trainer.stored_config(args.out), args, given)
@@ -114,15 +140,14 @@ def main(argv: list[str] | None = None) -> Path:
                 )
             trainer = Trainer.resume(args.out, args.trials if "trials" in given else None)
         else:
-            config = pose_checked(
+            config = checked(
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
-                trials=args.trials, lattice=args.lattice, rule=args.rule, keep_arm=args.keep_arm,
-                protocol=args.protocol, width=args.image_size[0], height=args.image_size[1],
-                sensing_noise=args.sensing_noise,
+                trials=args.trials, keep_arm=args.keep_arm,
+                width=args.image_size[0], height=args.image_size[1],
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
-                orientation_lattice=args.orientation_lattice if grasp_env else None,
                 orientations=args.orientations if grasp_env else None,
                 training_pairs=args.training_pairs if grasp_env else None,
+                **map_settings(args, given),
             )  # fmt: skip
             trainer = Trainer(config, args.out, force=args.force)
         try:
@@ -134,39 +159,73 @@ def main(argv: list[str] | None = None) -> Path:
     return args.out
 
 
-# ---- The map's options. This block is replaced by add_config_options(p, SOMConfig) (and the
-# pose map's config) once the configs' fields carry the CLI metadata ("help", "choices", "run").
-def add_map_options(p: argparse.ArgumentParser, d: RunConfig) -> None:
-    """The reach map's and the pose map's options (flags as given since the first releases)."""
-    reach, pose = sizes.format_lattice(d.lattice), sizes.format_lattice(_GRASP_MAP.position_lattice)
-    options.LATTICE.add(p, help=f"lattice shape (default {reach}; PumaGrasp-v0: the position "
-                        f"lattice, default {pose})")  # fmt: skip
-    nested = sizes.format_lattice(_GRASP_MAP.orientation_lattice)
-    p.add_argument("--orientation-lattice", type=cli.lattice,
-                   help=f"PumaGrasp-v0: the lattice nested at every position node (default "
-                   f"{nested})")  # fmt: skip
-    p.add_argument("--rule", default=d.rule, choices=RULES)
-    options.PROTOCOL.add(
-        p,
-        default=d.protocol,
-        help="mrs: MRS loop with this project's additions; brause: Brause's own (coarse Θ_c, "
-        "fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate)",
+# ---- The map's options: flags generated from the run options of its configs.
+@dataclass(frozen=True)
+class _MapFlag:
+    """How one map flag's value is a run setting: its key and how it is shown."""
+
+    run_key: str
+    shown: Callable[[Any], str]
+
+
+#: --rule (mrs, brause), the old flag of --theta-target, still taken.
+OLD_RULE = RENAMED["rule"][1]
+_RULE_OF = {v: k for k, v in OLD_RULE.items()}
+_MAP_FIELDS = {
+    f.name: _MapFlag(
+        run_key(f), (lambda v: _RULE_OF.get(v, v)) if f.name == "theta_target" else _text
     )
-    p.add_argument("--sensing-noise", type=cli.nonnegative_float, default=d.sensing_noise,
-                   help="px: std of a sensed pixel's error; the map's Widrow-Hoff step corrects "
-                   "for it (0: the published step; docs/decisions.md)")  # fmt: skip
+    for f in run_options(SOMConfig) + run_options(HierarchicalConfig)
+    if f.name != "position_lattice"
+} | {"rule": _MapFlag("rule", str)}
+#: The flags of the reach map's own options (``REACH_ONLY``).
+_REACH_FLAGS = {d for d, flag in _MAP_FIELDS.items() if flag.run_key in REACH_ONLY}
 
 
-# ---- end of the map's options
+def add_map_options(p: argparse.ArgumentParser) -> None:
+    """The map's run options as flags, from ``SOMConfig`` (the reach map) and
+    ``HierarchicalConfig`` (PumaGrasp-v0's map, whose position lattice is --lattice)."""
+    grasp, pose = ", ".join(GRASP_ENV_IDS), HierarchicalConfig()
+    group = p.add_argument_group("the map's options (learners/som/config.py)")
+    add_config_options(
+        group,
+        SOMConfig,
+        defaults={"lattice": None},
+        notes={"lattice": f"{grasp}: the position lattice, default "
+                          f"{sizes.format_lattice(pose.position_lattice)}"},
+    )  # fmt: skip
+    add_config_options(
+        group,
+        HierarchicalConfig,
+        skip=("position_lattice", "refine"),
+        defaults={"orientation_lattice": None},
+        notes={"orientation_lattice": f"{grasp} only, default "
+                                      f"{sizes.format_lattice(pose.orientation_lattice)}"},
+    )  # fmt: skip
+    group.add_argument("--rule", choices=tuple(OLD_RULE),
+                       help="the old name of --theta-target: mrs = coarse-error (the default), "
+                       "brause = fine-error")  # fmt: skip
 
 
-def pose_checked(**settings: object) -> RunConfig:
-    """``RunConfig(**settings)``; on a grasp env a reach-map option is a one-line user error."""
+def map_settings(args: argparse.Namespace, given: set[str]) -> dict[str, Any]:
+    """The map's options on the command line, flat as ``RunConfig.of`` takes them (a lattice
+    left out: the env's map's default)."""
+    marked = {f.name: f for f in run_options(SOMConfig) + run_options(HierarchicalConfig)}
+    values = {name: getattr(args, name, None) for name in marked if name != "position_lattice"}
+    rule = getattr(args, "rule", None)
+    if rule is not None:
+        if "theta_target" in given and values["theta_target"] != OLD_RULE[rule]:
+            cli.fail("--rule is the old name of --theta-target; give one of them")
+        values["theta_target"] = OLD_RULE[rule]
+    return {run_key(marked[k]): run_spelling(marked[k], v) for k, v in values.items()
+            if v is not None}  # fmt: skip
+
+
+def checked(**settings: Any) -> RunConfig:
+    """``RunConfig.of(**settings)``; a setting it refuses is a one-line user error."""
     try:
-        return RunConfig(**settings)
+        return RunConfig.of(**settings)
     except ValueError as exc:
-        if settings["env"] not in GRASP_ENV_IDS:
-            raise
         cli.fail(str(exc))
         raise  # not reached: fail exits
 

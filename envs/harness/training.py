@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +43,14 @@ from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
 from learners.som.hierarchical_config import HierarchicalConfig
+from learners.som.options import (
+    from_run_settings,
+    run_defaults,
+    run_entries,
+    run_key,
+    run_options,
+    run_spelling,
+)
 from models.puma560.grasp import NARROW, WIDE, OrientationRange
 
 #: Run settings that ``--resume`` may change: ``trials`` (to go on past the old end; the map's
@@ -54,21 +62,27 @@ INIT_TARGETS = 200
 INIT_SEED_OFFSET = 30_000
 #: Weight of the newest trial in the running errors shown on the progress bar.
 RUNNING_WEIGHT = 0.02
-#: The RunConfig fields that are options of the map (``SOMConfig``, whose defaults they take);
-#: the map's ``t_max`` is the run's ``trials``.
-MAP_OPTIONS = ("lattice", "rule", "protocol", "refine", "abar", "sensing_noise")
-_MAP = SOMConfig()
-#: The reach map's options that the grasp envs' hierarchical map does not have: a grasp run
-#: leaves them at their defaults.
-REACH_ONLY = ("rule", "protocol", "abar", "sensing_noise")
-#: RunConfig fields added after runs and sweep cells were named: left out of a stored or hashed
-#: configuration while they hold these values, so those names and files do not change.
+#: A run's map options: the reach map's on a reach env, the hierarchical map's on a grasp env.
+MapConfig = SOMConfig | HierarchicalConfig
+#: The map options a run spells the same on both maps' configs are one sweep axis and one entry;
+#: these of the reach map (``SOMConfig``) the grasp envs' hierarchical map does not have.
+REACH_ONLY = tuple(k for k in run_defaults(SOMConfig) if k not in run_defaults(HierarchicalConfig))
+#: The map options a run takes, by the names and spellings it gives them, with their defaults:
+#: both maps' run options (``learners.som.options.run_defaults``; ``lattice`` the reach map's).
+SETTINGS = run_defaults(HierarchicalConfig) | run_defaults(SOMConfig)
+#: A grasp run has always held the reach map's own options at their defaults (they were fields
+#: of the run): its checkpoint keeps them, so that its file and its sweep cell's name keep their
+#: bytes.
+GRASP_RUN_ENTRIES = {k: SETTINGS[k] for k in REACH_ONLY}
+#: Settings added after runs and sweep cells were named: left out of a stored or hashed
+#: configuration while they hold these values, so those names and files do not change (the map
+#: options that say so, ``omit_default``, and two fields).
 ADDED_LATER = {
-    "sensing_noise": _MAP.sensing_noise,
-    "orientation_lattice": None,
-    "orientations": None,
-    "training_pairs": None,
-}
+    run_key(f): run_spelling(f, f.default)
+    for kind in (SOMConfig, HierarchicalConfig)
+    for f in run_options(kind)
+    if f.metadata.get("omit_default")
+} | {"orientations": None, "training_pairs": None}
 #: The objects' orientations of a grasp run stored before runs recorded them (the 30° ball) ...
 FIRST_ORIENTATIONS = NARROW.spec()
 #: ... and its training pairs (one: the coarse and one fine move, learned once).
@@ -90,11 +104,16 @@ def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int
 class RunConfig:
     """Everything that defines a training run (stored in the checkpoint).
 
-    On a reach env the run trains a :class:`~learners.som.controller.VisuomotorSOM` of shape
-    ``lattice``; on a grasp env (``PumaGrasp-v0``) a
-    :class:`~learners.som.hierarchical.HierarchicalSOM` whose position lattice is ``lattice``
-    and whose nested lattice is ``orientation_lattice`` (None: the map's default), with
-    ``refine`` as its option of that name.
+    On a reach env the run trains a :class:`~learners.som.controller.VisuomotorSOM` with the
+    options ``map`` (a :class:`~learners.som.config.SOMConfig`); on a grasp env
+    (``PumaGrasp-v0``) a :class:`~learners.som.hierarchical.HierarchicalSOM` with the options
+    ``map`` (a :class:`~learners.som.hierarchical_config.HierarchicalConfig`). ``map`` None
+    takes that config's defaults. A run sets only the map's run options (metadata ``"run"``:
+    the lattices, ``theta_target``, ``refine``, ...): they are what its checkpoint stores. The
+    map's ``t_max`` is always the run's ``trials``, the hierarchical map's image size the run's.
+
+    :meth:`of` builds one from flat settings as the command line, a sweep grid and a checkpoint
+    spell them (``lattice=(8, 8, 8)``, ``rule="brause"``).
     """
 
     env: str = "RiacsReach-v0"
@@ -102,34 +121,23 @@ class RunConfig:
     control: str = "kinematic"
     seed: int = 0
     trials: int = 10_000
-    lattice: tuple[int, ...] = _MAP.lattice
-    rule: str = _MAP.rule
-    protocol: str = _MAP.protocol  # or "brause": Brause's coarse move, fine (3.7), learning
     keep_arm: bool = False
     eval_every: int = 1000
     eval_trials: int = 200
     fine_moves: int = 2
-    refine: bool = _MAP.refine
-    abar: str = _MAP.abar  # Ā of the test-time fine moves (training moves use the average)
-    sensing_noise: float = _MAP.sensing_noise  # px; the Widrow-Hoff step's noise correction
     width: int = IMAGE_WIDTH  # sensing images, px
     height: int = IMAGE_HEIGHT  # px
-    orientation_lattice: tuple[int, ...] | None = None  # grasp envs only
     #: grasp envs only: the objects' orientation range (``OrientationRange.parse``; None: the
     #: env's default, stored by its spelling)
     orientations: str | None = None
     #: grasp envs only: fine moves of a training trial, each learned after the one before it
     #: (``learn_from(..., pairs)``; None: TRAINING_PAIRS)
     training_pairs: int | None = None
+    map: MapConfig | None = None
 
     def __post_init__(self) -> None:
         """Checks every field, so that a configuration read back from a checkpoint or a sweep
         grid passes the same guards as one given on the command line (ValueError naming it)."""
-        if not isinstance(self.lattice, (tuple, list)):
-            raise ValueError(f"lattice is {self.lattice!r}, not a list of sizes")
-        object.__setattr__(self, "lattice", tuple(self.lattice))  # a tuple also from JSON lists
-        if isinstance(self.orientation_lattice, list):
-            object.__setattr__(self, "orientation_lattice", tuple(self.orientation_lattice))
         envs = REACH_ENV_IDS + GRASP_ENV_IDS
         choices = {"env": envs, "sensing": SENSING_MODES, "control": CONTROL_MODES}
         for name, valid in choices.items():
@@ -144,12 +152,6 @@ class RunConfig:
         if not isinstance(self.keep_arm, bool):
             raise ValueError(f"keep_arm is {self.keep_arm!r}, not true or false")
         if self.grasp:
-            changed = [k for k in REACH_ONLY if getattr(self, k) != getattr(_MAP, k)]
-            if changed:
-                raise ValueError(
-                    f"the reach map's option(s) {', '.join(changed)} do not apply to "
-                    f"{self.env}'s hierarchical map; leave them out"
-                )
             spelled = WIDE if self.orientations is None else self.orientations
             object.__setattr__(self, "orientations", OrientationRange.parse(spelled).spec())
             pairs = TRAINING_PAIRS if self.training_pairs is None else self.training_pairs
@@ -157,18 +159,85 @@ class RunConfig:
                 raise ValueError(f"training_pairs is {pairs!r}; it takes an integer in 1..8")
             object.__setattr__(self, "training_pairs", pairs)
         else:
-            for name in ("orientation_lattice", "orientations", "training_pairs"):
+            for name in ("orientations", "training_pairs"):
                 if getattr(self, name) is not None:
                     raise ValueError(
                         f"{name} is for the grasp envs ({', '.join(GRASP_ENV_IDS)}), not "
                         f"{self.env}; leave it out"
                     )
-        self.map_config()  # the map's options, checked by SOMConfig or HierarchicalConfig
+        object.__setattr__(self, "map", self._checked_map())
+
+    def _checked_map(self) -> MapConfig:
+        """``map`` (or its config's defaults) checked against the env, its ``t_max`` (and
+        image size) the run's."""
+        kind: type[SOMConfig] | type[HierarchicalConfig]
+        kind = HierarchicalConfig if self.grasp else SOMConfig
+        given = kind() if self.map is None else self.map
+        if not isinstance(given, kind):
+            raise ValueError(
+                f"{self.env} trains a map of {kind.__name__}, not {type(given).__name__}"
+            )
+        synced: dict[str, Any] = {"t_max": self.trials}
+        if self.grasp:
+            synced["image_size"] = (self.width, self.height)
+        run = {f.name for f in run_options(kind)} | set(synced)
+        changed = [f.name for f in fields(given) if f.name not in run and getattr(given, f.name)
+                   != getattr(kind(), f.name)]  # fmt: skip
+        if changed:
+            raise ValueError(
+                f"a run stores only its map's run options "
+                f"({', '.join(f.name for f in run_options(kind))}), not {', '.join(changed)}"
+            )
+        return kind.of(given, **synced)
 
     @property
     def grasp(self) -> bool:
         """The run is on a grasp env (the hierarchical map)."""
         return self.env in GRASP_ENV_IDS
+
+    @property
+    def lattice(self) -> tuple[int, ...]:
+        """The map's lattice (on a grasp env its position lattice)."""
+        config = self.map_config()
+        return config.position_lattice if isinstance(config, HierarchicalConfig) else config.lattice
+
+    def map_config(self) -> MapConfig:
+        """The options of the run's map (``map``, checked and synced by the constructor)."""
+        assert self.map is not None  # the constructor sets it
+        return self.map
+
+    @classmethod
+    def of(cls, **settings: Any) -> RunConfig:
+        """The run of flat ``settings``: RunConfig fields and the map's run options by the
+        names and spellings a run gives them (``SETTINGS``): the reach map's on a reach env,
+        the hierarchical map's on a grasp env. ValueError naming a setting that is unknown or
+        does not fit the env (a reach map's option on a grasp env other than at its default)."""
+        own = {f.name for f in fields(cls)} - {"map"}
+        run = {k: v for k, v in settings.items() if k in own}
+        env = run.get("env", cls.env)
+        kind = HierarchicalConfig if env in GRASP_ENV_IDS else SOMConfig
+        options = {k: list(v) if isinstance(v, tuple) else v
+                   for k, v in settings.items() if k not in own and v is not None}  # fmt: skip
+        unknown = sorted(set(options) - set(SETTINGS))
+        if unknown:
+            valid = ", ".join(sorted(own | set(SETTINGS)))
+            raise ValueError(f"unknown setting(s) {', '.join(unknown)}; valid: {valid}")
+        mine = run_defaults(kind)
+        # a grasp run's file holds the reach map's defaults (GRASP_RUN_ENTRIES)
+        foreign = [k for k, v in options.items()
+                   if k not in mine and (kind is SOMConfig or v != SETTINGS[k])]  # fmt: skip
+        if foreign and kind is HierarchicalConfig:
+            raise ValueError(
+                f"the reach map's option(s) {', '.join(foreign)} do not apply to {env}'s "
+                "hierarchical map; leave them out"
+            )
+        if foreign:
+            raise ValueError(
+                f"{', '.join(foreign)} is for the grasp envs ({', '.join(GRASP_ENV_IDS)}), not "
+                f"{env}; leave it out"
+            )
+        map_options = {k: v for k, v in options.items() if k in mine}
+        return cls(**run, map=from_run_settings(kind, map_options))
 
     @classmethod
     def from_stored(cls, stored: dict[str, Any]) -> RunConfig:
@@ -180,27 +249,26 @@ class RunConfig:
         if stored.get("env") in GRASP_ENV_IDS:
             stored.setdefault("orientations", FIRST_ORIENTATIONS)
             stored.setdefault("training_pairs", FIRST_TRAINING_PAIRS)
-        return cls(**stored)
+        return cls.of(**stored)
+
+    def settings(self) -> dict[str, Any]:
+        """Every setting of the run, flat, as :meth:`of` takes them: the fields, and the map's
+        run options by the names and spellings a run gives them (on a grasp env also
+        ``GRASP_RUN_ENTRIES``)."""
+        own = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "map"}
+        config = self.map_config()
+        extra = GRASP_RUN_ENTRIES if self.grasp else {}
+        return own | extra | run_defaults(type(config)) | run_entries(config)
 
     def to_stored(self) -> dict[str, Any]:
-        """The fields as a checkpoint stores them: a field of ``ADDED_LATER`` at its value there
-        is left out, so runs without it keep their files and sweep cells their names."""
+        """The settings as a checkpoint stores them (:meth:`from_stored` reads them back),
+        those of ``ADDED_LATER`` left out while they hold its value, so that runs without them
+        keep their files and sweep cells their names."""
         return {
-            k: v for k, v in asdict(self).items() if not (k in ADDED_LATER and ADDED_LATER[k] == v)
+            k: v
+            for k, v in self.settings().items()
+            if not (k in ADDED_LATER and ADDED_LATER[k] == v)
         }
-
-    def map_config(self) -> SOMConfig | HierarchicalConfig:
-        """The options of the run's map (ValueError naming a bad one)."""
-        if self.grasp:
-            nested = self.orientation_lattice or HierarchicalConfig().orientation_lattice
-            return HierarchicalConfig.of(
-                position_lattice=self.lattice,
-                orientation_lattice=nested,
-                image_size=(self.width, self.height),
-                t_max=self.trials,
-                refine=self.refine,
-            )
-        return SOMConfig.of(**{k: getattr(self, k) for k in MAP_OPTIONS}, t_max=self.trials)
 
     def make_env(self, stream: str = "training") -> gym.Env:
         """The run's env, drawing its targets from ``stream`` of the run's seed

@@ -40,6 +40,7 @@ import math
 import os
 import shutil
 import time
+import typing
 from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
@@ -51,6 +52,7 @@ from envs.harness.evaluation import Evaluation, evaluate
 from envs.harness.run_folder import locked, write_json
 from envs.harness.training import (
     REACH_ONLY,
+    SETTINGS,
     RunConfig,
     Trainer,
     check_env_image_size,
@@ -60,8 +62,6 @@ from envs.sizes import format_lattice, parse_lattice, parse_size
 from learners.persistence import CheckpointError
 from learners.som.hierarchical_config import HierarchicalConfig
 
-#: The grasp cells' lattices unless the grid gives them: the hierarchical map's defaults.
-_GRASP_MAP = HierarchicalConfig()
 CELL_FILE, PROGRESS_FILE, ATTEMPTS_FILE = "cell.json", "progress.json", "attempts.jsonl"
 LOCK_SUFFIX = ".lock"
 #: The axes shown in a cell's folder name (the hash covers everything else).
@@ -70,9 +70,20 @@ NAME_AXES = ("robot", "lattice", "orientation_lattice", "rule", "protocol", "ref
 
 
 def _fields() -> dict[str, Any]:
-    """RunConfig field -> default value (its type parses the grid's values)."""
+    """Setting -> default value as a run spells it (its type parses the grid's values): the
+    RunConfig fields and the maps' run options (``SETTINGS``)."""
     default = RunConfig()
-    return {f.name: getattr(default, f.name) for f in fields(RunConfig)}
+    own = {f.name: getattr(default, f.name) for f in fields(RunConfig) if f.name != "map"}
+    return own | SETTINGS
+
+
+def _type(axis: str, default: Any) -> Any:
+    """The type of ``axis``'s values: its default's, or for a field that defaults to None the
+    annotation's (``str | None`` -> str)."""
+    if default is not None:
+        return type(default)
+    hint = typing.get_type_hints(RunConfig)[axis]
+    return next(a for a in typing.get_args(hint) if a is not type(None))
 
 
 def robot_word(env_id: str) -> str:
@@ -96,7 +107,7 @@ def parse_value(axis: str, value: Any) -> Any:
         if str(value).lower() not in ("true", "false", "1", "0"):
             raise ValueError(f"{axis} takes true or false, got {value!r}")
         return str(value).lower() in ("true", "1")
-    return type(default)(value)
+    return _type(axis, default)(value)
 
 
 def expand(grid: dict[str, Any]) -> list[RunConfig]:
@@ -155,8 +166,8 @@ def check_task_axes(values: dict[str, list[Any]]) -> None:
 def neurons(config: RunConfig) -> int:
     """The neurons N of a cell's map: the lattice's nodes, or on a grasp env the hierarchical
     map's leaves (position nodes × orientation nodes), each of which learns its own joints."""
-    if config.grasp:
-        nested = config.map_config()
+    nested = config.map_config()
+    if isinstance(nested, HierarchicalConfig):
         return nested.n_positions * nested.n_orientations
     return math.prod(config.lattice)
 
@@ -165,12 +176,9 @@ def _config(values: dict[str, Any]) -> RunConfig:
     """The RunConfig of one cell's values (``image_size`` (width, height) sets both fields),
     its image size checked against the cameras of its env; a grasp cell's lattices are the
     hierarchical map's defaults unless given (never the reach map's default lattice)."""
-    if values.get("env") in GRASP_ENV_IDS:
-        values.setdefault("lattice", _GRASP_MAP.position_lattice)
-        values.setdefault("orientation_lattice", _GRASP_MAP.orientation_lattice)
     if "image_size" in values:
         values["width"], values["height"] = values.pop("image_size")
-    config = RunConfig(**values)  # ValueError for an env that is not a reach env
+    config = RunConfig.of(**values)  # ValueError for an env that is not a reach env
     check_env_image_size(config.env, config.width, config.height)
     return config
 

@@ -13,7 +13,6 @@ import io
 import json
 import os
 from collections.abc import Callable
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +34,7 @@ LOOPBACK = "127.0.0.1"
 def _cell_task(config: dict, folder: str, checkpoint_every: int) -> dict:
     import envs  # noqa: F401  (registers the envs in the worker; chooses the GL back-end)
 
-    return run_cell(RunConfig(**config), Path(folder), checkpoint_every)
+    return run_cell(RunConfig.from_stored(config), Path(folder), checkpoint_every)
 
 
 def start_ray(address: str | None, num_cpus: int) -> None:
@@ -93,7 +92,7 @@ def run_sweep(
     try:
         task = ray.remote(num_cpus=1, max_retries=retries)(_cell_task)
         todo.sort(key=lambda cell: -cell[0].trials * neurons(cell[0]))  # long first
-        pending = {task.remote(asdict(c), str(f), checkpoint_every): f for c, f in todo}
+        pending = {task.remote(c.to_stored(), str(f), checkpoint_every): f for c, f in todo}
         failed: list[str] = []
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1, timeout=PROGRESS_EVERY_S)

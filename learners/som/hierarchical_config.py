@@ -97,7 +97,7 @@ class HierarchicalConfig:
 
     position_lattice: tuple[int, ...] = option(
         (8, 8, 6), "shape of the lattice over the object's position (marker 1's pixels)",
-        run=True,
+        run=True, run_as="lattice",
     )  # fmt: skip
     orientation_lattice: tuple[int, ...] = option(
         (2, 2, 2), "shape of the lattice nested at every position node, over the orientation",

@@ -13,7 +13,9 @@ configuration read the same metadata:
 - ``"stored_as"``, ``"stored_values"``: the entry name and values a checkpoint writes when they
   differ from the option's (a renamed option keeps its files);
 - ``"omit_default"``: the entry is left out of a checkpoint while the option holds its default
-  (files written before it existed stay the same bytes).
+  (files written before it existed stay the same bytes);
+- ``"run_as"``: the name a training run, its sweep axes and its checkpoint give the option when
+  it is not the entry's (the grasp map's ``position_lattice`` is a run's ``lattice``).
 
 :func:`entries` and :func:`from_entries` turn a configuration into a checkpoint's JSON entries
 and back, from the fields' annotations and metadata: schedules go together into one
@@ -55,6 +57,7 @@ def option(
     stored_as: str | None = None,
     stored_values: dict[str, str] | None = None,
     omit_default: bool = False,
+    run_as: str | None = None,
 ) -> Any:
     """A configuration field with its metadata (the module docstring lists the keys)."""
     metadata: dict[str, Any] = {"help": help, "run": run}
@@ -68,12 +71,63 @@ def option(
         metadata["stored_values"] = stored_values
     if omit_default:
         metadata["omit_default"] = True
+    if run_as is not None:
+        metadata["run_as"] = run_as
     return dataclasses.field(default=default, metadata=metadata)
 
 
 def run_options(config_cls: type) -> tuple[Field[Any], ...]:
     """The fields of ``config_cls`` that a training run exposes and stores (metadata "run")."""
     return tuple(f for f in fields(config_cls) if f.metadata.get("run"))
+
+
+def run_key(f: Field[Any]) -> str:
+    """The name a training run gives the run option ``f``: its ``run_as``, else its entry's."""
+    return f.metadata.get("run_as", f.metadata.get("stored_as", f.name))
+
+
+def run_spelling(f: Field[Any], value: Any) -> Any:
+    """The value of the run option ``f`` as a run spells it (a sweep axis, a checkpoint)."""
+    if isinstance(value, tuple):
+        return list(value)
+    return f.metadata["stored_values"][value] if "stored_values" in f.metadata else value
+
+
+def run_entries(config: Any) -> dict[str, Any]:
+    """The run options of ``config`` as a training run stores them, by :func:`run_key`, left out
+    while default where the option says so (``omit_default``)."""
+    return {
+        run_key(f): run_spelling(f, getattr(config, f.name))
+        for f in run_options(type(config))
+        if not (f.metadata.get("omit_default") and getattr(config, f.name) == f.default)
+    }
+
+
+def run_defaults(config_cls: type) -> dict[str, Any]:
+    """:func:`run_key` -> the run option's default, as a run spells it."""
+    return {run_key(f): run_spelling(f, f.default) for f in run_options(config_cls)}
+
+
+def from_run_settings(config_cls: Callable[..., T], settings: dict[str, Any]) -> T:
+    """``config_cls`` with the run options in ``settings`` (by :func:`run_key`, spelled as a run
+    spells them: lists for tuples, stored values), its other options at their defaults; a key
+    that is not a run option of ``config_cls`` is left to the caller. ValueError for a value
+    the option does not take (the config's own checks)."""
+    options: dict[str, Any] = {}
+    for f in run_options(config_cls):  # type: ignore[arg-type]
+        key = run_key(f)
+        if key not in settings:
+            continue
+        value = settings[key]
+        if isinstance(value, list):
+            value = tuple(value)
+        if "stored_values" in f.metadata:
+            named = {v: k for k, v in f.metadata["stored_values"].items()}
+            if value not in named:
+                raise ValueError(f"unknown {key} {value!r}; valid: {', '.join(named)}")
+            value = named[value]
+        options[f.name] = value
+    return config_cls(**options)
 
 
 def field_types(config_cls: type) -> dict[str, Any]:
