@@ -483,3 +483,34 @@ def test_unusable_backend_error_names_both_backends(tmp_path):
     assert message.startswith("ERROR"), message
     for word in ("MUJOCO_GL=egl", "MUJOCO_GL=osmesa", "libosmesa6"):
         assert word in message, f"{word!r} missing from: {message}"
+
+
+@pytest.mark.parametrize(("backend", "library"), [("egl", "EGL"), ("osmesa", "OSMesa")])
+def test_an_env_used_in_a_fork_of_the_process_that_rendered_it_refuses(backend, library, tmp_path):
+    """The parent renders an env, then forks at a random moment of a short wait: the child that
+    steps the inherited env gets RenderingUnavailableError naming the processes (an inherited
+    GL context would hang), and the parent's env still renders."""
+    if ctypes.util.find_library(library) is None:
+        pytest.skip(f"lib{library} is not installed")
+    code = (
+        "import os, random, time, gymnasium as gym, numpy as np, envs\n"
+        "from envs.sensing.rendering import RenderingUnavailableError\n"
+        "env = gym.make('RiacsReach-v0', sensing='render', control='kinematic')\n"
+        "env.reset(seed=0); env.step(env.action_space.sample())\n"
+        "time.sleep(random.uniform(0.0, 0.2))\n"
+        "pid = os.fork()\n"
+        "if pid == 0:\n"
+        "    try:\n"
+        "        env.step(env.action_space.sample())\n"
+        "    except RenderingUnavailableError as exc:\n"
+        "        print('child refused:', f'process {os.getppid()}' in str(exc), flush=True)\n"
+        "        os._exit(3)\n"
+        "    os._exit(0)\n"
+        "code = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])\n"
+        "obs = env.step(env.action_space.sample())[0]\n"
+        "print('child exit', code, np.isfinite(obs['observation']).any())\n"
+        "env.close()\n"
+    )
+    result = _run(code, {"MUJOCO_GL": backend}, tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split("\n")[:2] == ["child refused: True", "child exit 3 True"]

@@ -201,6 +201,18 @@ def start_gl_backend() -> str:
     return chosen
 
 
+def check_same_process(started_in: int) -> None:
+    """RenderingUnavailableError unless this is process ``started_in``, the one that made a
+    renderer's GL context: a context inherited through a fork hangs when it is used."""
+    if os.getpid() != started_in:
+        raise RenderingUnavailableError(
+            f"this env's renderer started OpenGL in process {started_in}, and this is process "
+            f"{os.getpid()}, forked from it: EGL and OSMesa hang on an inherited context. Make "
+            "the env in the process that uses it; start worker processes with 'forkserver' or "
+            "'spawn', e.g. gymnasium.vector.AsyncVectorEnv(env_fns, context='forkserver')."
+        )
+
+
 def check_gl_allowed() -> None:
     """Raise in a process forked after its parent had started OpenGL; else start the back-end."""
     if _gl_started_before_fork:
@@ -280,10 +292,13 @@ class CameraRenderer:
             )
         self.model, self.height, self.width, self.fast = model, height, width, fast
         self._renderer = None
+        self._pid = 0  # the process that made _renderer's GL context
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
 
     def _get(self):
-        if self._renderer is None:
+        if self._renderer is not None:
+            check_same_process(self._pid)
+        else:
             import mujoco
 
             check_gl_allowed()
@@ -297,6 +312,7 @@ class CameraRenderer:
             finally:
                 self.model.vis.quality.offsamples = samples
             mark_gl_started()
+            self._pid = os.getpid()
             if self.fast:
                 flags = self._renderer.scene.flags
                 for flag in SENSING_OFF_FLAGS:

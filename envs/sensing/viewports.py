@@ -10,6 +10,7 @@ is nearer the camera.
 from __future__ import annotations
 
 import math
+import os
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ import numpy as np
 from envs.sensing.rendering import (
     SENSING_OFF_FLAGS,
     check_gl_allowed,
+    check_same_process,
     free_gl,
     gl_start_error,
     mark_gl_started,
@@ -144,6 +146,7 @@ class ViewportRenderer:
         self.off_flags, self.textures = tuple(off_flags), textures
         self.own_headlight, self.plane_grid, self.facets = own_headlight, plane_grid, facets
         self._gl: Any = None  # the GL back-end's GLContext (its class is chosen at run time)
+        self._pid = 0  # the process that made _gl
         self._context: mujoco.MjrContext | None = None
         self._scene: mujoco.MjvScene | None = None
         self._free: weakref.finalize | None = None  # frees _context and _gl, once
@@ -179,7 +182,7 @@ class ViewportRenderer:
         # The finaliser holds both until it runs, so neither is freed on its own, in the wrong
         # order or under another renderer's context (see free_gl).
         self._free = weakref.finalize(self, free_gl, gl, context)
-        self._gl, self._context = gl, context
+        self._gl, self._context, self._pid = gl, context, os.getpid()
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, context)
         scene = self._scene = mujoco.MjvScene(self.model, maxgeom=1000)
         for flag in self.off_flags:
@@ -190,6 +193,7 @@ class ViewportRenderer:
         """The rendering context and the scene, made at the first call."""
         if self._context is None or self._scene is None:
             return self._start()
+        check_same_process(self._pid)
         return self._context, self._scene
 
     def _option(self, groups: tuple[int, ...]):
