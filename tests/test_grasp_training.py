@@ -111,7 +111,7 @@ def test_run_configs_refuse_options_of_the_other_map():
         RunConfig.of(orientation_lattice=(2, 2))
     with pytest.raises(ValueError, match=r"option\(s\) protocol do not apply"):
         RunConfig.of(env="PumaGrasp-v0", protocol="brause")
-    config = RunConfig.of(env="PumaGrasp-v0", lattice=(4, 4, 3)).map_config()
+    config = RunConfig.of(env="PumaGrasp-v0", lattice=(4, 4, 3)).map
     assert config.position_lattice == (4, 4, 3) and config.orientation_lattice == (2, 2, 2)
 
 

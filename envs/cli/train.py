@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -71,14 +70,13 @@ def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str
     settings = stored.settings()
     out = []
     for dest in sorted(given):
-        key = _MAP_FIELDS[dest].run_key if dest in _MAP_FIELDS else dest
+        key = run_key(_MAP_FIELDS[dest]) if dest in _MAP_FIELDS else dest
         if key in RESUMABLE or key not in ours:
             continue
-        mine, theirs = _listed(ours[key]), _listed(settings.get(key, SETTINGS.get(key)))
+        mine, theirs = ours[key], settings.get(key, SETTINGS.get(key))
         if mine != theirs:
-            shown = _MAP_FIELDS[dest].shown if dest in _MAP_FIELDS else _text
             flag = "--" + dest.replace("_", "-")
-            out.append(f"{flag} {shown(mine)} (the run has {shown(theirs)})")
+            out.append(f"{flag} {_shown(dest, mine)} (the run has {_shown(dest, theirs)})")
     size = (stored.width, stored.height)  # --image-size WIDTHxHEIGHT sets both fields
     if "image_size" in given and tuple(args.image_size) != size:
         ours_size, theirs_size = sizes.format_size(*args.image_size), sizes.format_size(*size)
@@ -86,9 +84,12 @@ def resume_conflicts(stored: RunConfig, args: argparse.Namespace, given: set[str
     return out
 
 
-def _listed(value: Any) -> Any:
-    """Lattices as a run's settings spell them (lists)."""
-    return list(value) if isinstance(value, tuple) else value
+def _shown(dest: str, value: Any) -> str:
+    """The run setting ``value`` of the flag ``dest`` as the flag spells it."""
+    f = _MAP_FIELDS.get(dest)
+    if f is not None and "stored_values" in f.metadata:
+        value = {v: k for k, v in f.metadata["stored_values"].items()}[value]
+    return _text(value)
 
 
 def main(argv: list[str] | None = None) -> Path:
@@ -160,26 +161,16 @@ def main(argv: list[str] | None = None) -> Path:
 
 
 # ---- The map's options: flags generated from the run options of its configs.
-@dataclass(frozen=True)
-class _MapFlag:
-    """How one map flag's value is a run setting: its key and how it is shown."""
-
-    run_key: str
-    shown: Callable[[Any], str]
-
-
-#: --rule (mrs, brause), the old flag of --theta-target, still taken.
+#: --rule (mrs, brause), the old flag of --theta-target, still taken; its values are the run's.
 OLD_RULE = RENAMED["rule"][1]
-_RULE_OF = {v: k for k, v in OLD_RULE.items()}
+#: The map's run options by their flags' dests (the grasp map's position lattice is --lattice).
 _MAP_FIELDS = {
-    f.name: _MapFlag(
-        run_key(f), (lambda v: _RULE_OF.get(v, v)) if f.name == "theta_target" else _text
-    )
+    f.name: f
     for f in run_options(SOMConfig) + run_options(HierarchicalConfig)
     if f.name != "position_lattice"
-} | {"rule": _MapFlag("rule", str)}
-#: The flags of the reach map's own options (``REACH_ONLY``).
-_REACH_FLAGS = {d for d, flag in _MAP_FIELDS.items() if flag.run_key in REACH_ONLY}
+}
+#: The flags of the reach map's own options (``REACH_ONLY``), the old --rule among them.
+_REACH_FLAGS = {d for d, f in _MAP_FIELDS.items() if run_key(f) in REACH_ONLY} | {"rule"}
 
 
 def add_map_options(p: argparse.ArgumentParser) -> None:
@@ -210,15 +201,14 @@ def add_map_options(p: argparse.ArgumentParser) -> None:
 def map_settings(args: argparse.Namespace, given: set[str]) -> dict[str, Any]:
     """The map's options on the command line, flat as ``RunConfig.of`` takes them (a lattice
     left out: the env's map's default)."""
-    marked = {f.name: f for f in run_options(SOMConfig) + run_options(HierarchicalConfig)}
-    values = {name: getattr(args, name, None) for name in marked if name != "position_lattice"}
+    values = {name: getattr(args, name, None) for name in _MAP_FIELDS}
     rule = getattr(args, "rule", None)
     if rule is not None:
         if "theta_target" in given and values["theta_target"] != OLD_RULE[rule]:
             cli.fail("--rule is the old name of --theta-target; give one of them")
         values["theta_target"] = OLD_RULE[rule]
-    return {run_key(marked[k]): run_spelling(marked[k], v) for k, v in values.items()
-            if v is not None}  # fmt: skip
+    return {run_key(_MAP_FIELDS[k]): run_spelling(_MAP_FIELDS[k], v)
+            for k, v in values.items() if v is not None}  # fmt: skip
 
 
 def checked(**settings: Any) -> RunConfig:

@@ -133,7 +133,8 @@ class RunConfig:
     #: grasp envs only: fine moves of a training trial, each learned after the one before it
     #: (``learn_from(..., pairs)``; None: TRAINING_PAIRS)
     training_pairs: int | None = None
-    map: MapConfig | None = None
+    #: the map's options (None: its config's defaults; the constructor sets the checked config)
+    map: MapConfig = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         """Checks every field, so that a configuration read back from a checkpoint or a sweep
@@ -198,13 +199,8 @@ class RunConfig:
     @property
     def lattice(self) -> tuple[int, ...]:
         """The map's lattice (on a grasp env its position lattice)."""
-        config = self.map_config()
+        config = self.map
         return config.position_lattice if isinstance(config, HierarchicalConfig) else config.lattice
-
-    def map_config(self) -> MapConfig:
-        """The options of the run's map (``map``, checked and synced by the constructor)."""
-        assert self.map is not None  # the constructor sets it
-        return self.map
 
     @classmethod
     def of(cls, **settings: Any) -> RunConfig:
@@ -256,7 +252,7 @@ class RunConfig:
         run options by the names and spellings a run gives them (on a grasp env also
         ``GRASP_RUN_ENTRIES``)."""
         own = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "map"}
-        config = self.map_config()
+        config = self.map
         extra = GRASP_RUN_ENTRIES if self.grasp else {}
         return own | extra | run_defaults(type(config)) | run_entries(config)
 
@@ -301,7 +297,7 @@ def initial_grasp_map(config: RunConfig, env: gym.Env) -> HierarchicalSOM:
         base.joint_lower,
         base.joint_upper,
         ready.copy(),
-        config.map_config(),
+        config.map,
         rng=np.random.default_rng(config.seed),
     )
 
@@ -337,7 +333,7 @@ def initial_map(config: RunConfig, env: gym.Env, **options: Any) -> VisuomotorSO
     return VisuomotorSOM(
         base.joint_lower,
         base.joint_upper,
-        SOMConfig.of(config.map_config(), **options),
+        SOMConfig.of(config.map, **options),
         rng=np.random.default_rng(config.seed),
         input_low=seen.min(axis=0),
         input_high=seen.max(axis=0),

@@ -166,7 +166,7 @@ def check_task_axes(values: dict[str, list[Any]]) -> None:
 def neurons(config: RunConfig) -> int:
     """The neurons N of a cell's map: the lattice's nodes, or on a grasp env the hierarchical
     map's leaves (position nodes × orientation nodes), each of which learns its own joints."""
-    nested = config.map_config()
+    nested = config.map
     if isinstance(nested, HierarchicalConfig):
         return nested.n_positions * nested.n_orientations
     return math.prod(config.lattice)
