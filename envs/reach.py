@@ -12,10 +12,12 @@ import numpy as np
 
 from envs import arguments
 from envs.composite import CompositeView
+from envs.kernels import clip_command
 from envs.perturb import Perturbation, PerturbationError, SceneEditor, random_sizes
 from envs.reward import GoalPoints, reward_terms, seen_flags
 from envs.robots import ROBOTS, MarkerSet, reach_env_ids
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
+from envs.sensing import pinhole_kernels
 from envs.sensing.camera_images import CameraImages
 from envs.sensing.sensors import SENSING_MODES, make_sensor
 from envs.sensing.stereo import CameraPair
@@ -236,7 +238,6 @@ class ReachEnv(ArmScene):
         #: rad (J,) each: the action space's bounds, commands are clipped into them (the joint
         #: ranges here; a task may narrow them, :meth:`_action_bounds`).
         self.action_lower, self.action_upper = self._action_bounds()
-        self._action_floats = (self.action_lower.tolist(), self.action_upper.tolist())  # rad
         self.nominal_stereo = CameraPair(self.stereo.cameras)  # the baselines' calibration
         self._editor = SceneEditor(
             self.model,
@@ -337,15 +338,13 @@ class ReachEnv(ArmScene):
 
     def _goal_coordinates(
         self, achieved_goal, desired_goal
-    ) -> tuple[tuple[int, ...], list | np.ndarray, list | np.ndarray]:
-        """(batch shape, achieved, desired): each goal's G pixel coordinates (normalised goals
-        mapped back to pixels), as Python floats for one transition (shape ``()``: the same
-        bits as arrays, quicker) or as arrays (G, *shape) for a batch."""
+    ) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+        """(batch shape, achieved, desired): the goals' coordinates (G, *shape) px (normalised
+        goals mapped back to pixels); shape ``()`` for one transition."""
         a, d = np.asarray(achieved_goal, dtype=float), np.asarray(desired_goal, dtype=float)
         size = self.goal_size
-        if a.shape == d.shape == (size,):  # one transition: Python floats, same bits as arrays
+        if a.shape == d.shape == (size,):  # one transition
             shape: tuple[int, ...] = ()
-            a_q, d_q = a.tolist(), d.tolist()
         else:
             if a.shape[-1:] != (size,) or d.shape[-1:] != (size,):
                 raise ValueError(
@@ -353,11 +352,12 @@ class ReachEnv(ArmScene):
                     f"shapes {a.shape} and {d.shape}"
                 )
             shape = np.broadcast_shapes(a.shape, d.shape)[:-1]
-            a_q = np.moveaxis(np.broadcast_to(a, (*shape, size)), -1, 0)
-            d_q = np.moveaxis(np.broadcast_to(d, (*shape, size)), -1, 0)
+            a = np.moveaxis(np.broadcast_to(a, (*shape, size)), -1, 0)
+            d = np.moveaxis(np.broadcast_to(d, (*shape, size)), -1, 0)
         if self.normalize:
-            a_q, d_q = self._goal_pixels(a_q), self._goal_pixels(d_q)
-        return shape, a_q, d_q
+            half = self._pixel_half[:size].reshape(size, *(1,) * len(shape))
+            a, d = (a + 1.0) * half, (d + 1.0) * half
+        return shape, a, d
 
     #: How a goal vector is laid out, for messages.
     _goal_layout = "u_left, v_left, u_right, v_right"
@@ -376,7 +376,8 @@ class ReachEnv(ArmScene):
         changed (a perturbation)."""
         if self._cameras_read is not self.stereo.cameras:  # (re)read if the rig changed
             self._cameras_read = self.stereo.cameras
-            self._goal_points = GoalPoints(tuple(camera_floats(c) for c in self.stereo.cameras))
+            cameras = tuple(camera_floats(c) for c in self.stereo.cameras)
+            self._goal_points = GoalPoints(cameras, self.stereo.camera_rows)
         return self._goal_points
 
     def _reward(self, observation: dict[str, np.ndarray], info: dict[str, Any]) -> float:
@@ -497,7 +498,7 @@ class ReachEnv(ArmScene):
         """The robot's reach in metres, for errors in % of the robot's size."""
         return self.spec_robot.reach
 
-    def _check_action(self, action: np.ndarray) -> tuple[np.ndarray | list[float], bool]:
+    def _check_action(self, action: np.ndarray) -> tuple[np.ndarray, bool]:
         """The command (J,) rad for the controlled joints, clipped into their ranges, and
         whether it was clipped; ValueError for a wrong shape or a value that is not finite."""
         real = isinstance(action, np.ndarray) and action.dtype.char in "fd"  # float32, float64
@@ -507,20 +508,29 @@ class ReachEnv(ArmScene):
                 f"action must have shape ({self.joints},) (joint1..joint{self.joints} in rad), "
                 f"got shape {a.shape}"
             )
-        values = a.tolist()
-        if not all(map(math.isfinite, values)):
-            bad = int(np.flatnonzero(~np.isfinite(a))[0])
+        if pinhole_kernels.ENABLED:
+            command = np.empty(self.joints)
+            bad, clipped = clip_command(a, self._action_mid, self._action_half, self.action_lower,
+                                        self.action_upper, self.normalize, command)  # fmt: skip
+        else:
+            bad, command, clipped = self._clipped_numpy(a)
+        if bad >= 0:
             raise ValueError(f"action for joint{bad + 1} is {a[bad]}; commands must be finite")
+        return command, clipped
+
+    def _clipped_numpy(self, a: np.ndarray) -> tuple[int, np.ndarray, bool]:
+        """:func:`envs.kernels.clip_command` on arrays: (the first joint whose action is not
+        finite or -1, the command, whether the action was clipped)."""
+        finite = np.isfinite(a)
+        if not finite.all():
+            return int(np.flatnonzero(~finite)[0]), a, False
         if self.normalize:  # [-1, 1] per joint -> its action bounds
             inside = np.minimum(np.maximum(a, -1.0), 1.0)
             command = self._action_mid + self._action_half * inside
             command = np.minimum(np.maximum(command, self.action_lower), self.action_upper)
-            return command, bool((inside != a).any())
-        # Finite floats: min and max pick exactly what np.minimum and np.maximum would.
-        command = [
-            min(max(v, lo), hi) for v, lo, hi in zip(values, *self._action_floats, strict=True)
-        ]
-        return command, command != values
+            return -1, command, bool((inside != a).any())
+        command = np.minimum(np.maximum(a, self.action_lower), self.action_upper)
+        return -1, command, bool((command != a).any())
 
     def _forward(self) -> None:
         """Positions from qpos: kinematic control needs only the kinematics and the cameras
@@ -531,7 +541,7 @@ class ReachEnv(ArmScene):
         else:
             mujoco.mj_forward(self.model, self.data)
 
-    def _move(self, command: np.ndarray | list[float]) -> float:
+    def _move(self, command: np.ndarray) -> float:
         if self.control == "kinematic":
             self.set_joints(command)
             return 0.0
@@ -591,7 +601,7 @@ class ReachEnv(ArmScene):
     @staticmethod
     def _per_camera(visible: np.ndarray) -> np.ndarray:
         """(2,) bool: each camera saw every marker (``visible`` (2M,): per marker, per camera)."""
-        return visible.reshape(-1, 2).all(axis=0)
+        return visible if len(visible) == 2 else visible.reshape(-1, 2).all(axis=0)
 
     def _remember(self, marker: str, pixels: np.ndarray, visible: np.ndarray) -> None:
         """Keep each sighting by both cameras as that marker's goal, inside the image: a
@@ -672,11 +682,6 @@ class ReachEnv(ArmScene):
             "desired_goal": pixels,
         }
         self.observation_space = gym.spaces.Dict({k: spaces[k] for k in OBS_MODES[self.obs_mode]})
-
-    def _goal_pixels(self, q: list) -> list:
-        """Normalised goal coordinates (G floats or arrays) -> pixels, elementwise."""
-        half = self._pixel_half[: self.goal_size].tolist()
-        return [(x + 1.0) * h for x, h in zip(q, half, strict=True)]
 
     def _info(self, clipped: bool, settle_time: float) -> StepInfo:
         target = self.data.mocap_pos[self.target_mocap_id].copy()

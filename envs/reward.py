@@ -11,34 +11,38 @@ as observed, which relabelling replaces.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from envs.sensing import pinhole_kernels
 from envs.sensing.triangulation import CameraFloats, distance_elementwise, triangulate_elementwise
 
 #: ``info`` key saying whether both cameras saw the effector marker after the move.
 SEEN_KEY = "visible_effector"
-#: Single-transition triangulations remembered (the desired goal repeats within an episode).
-CACHE_SIZE = 64
 
 
-class GoalPoints:
-    """The stereo rig's cameras as floats, and the triangulations of single goals already
-    computed with them (a remembered point has the same bits as a recomputed one)."""
+class GoalPoints(NamedTuple):
+    """The stereo rig's cameras for triangulating goals: as floats (the numpy path) and as rows
+    (2, 16) of :func:`envs.sensing.triangulation.camera_array` (the compiled one)."""
 
-    def __init__(self, cameras: tuple[CameraFloats, ...]) -> None:
-        self.cameras = cameras
-        self._memo: dict[tuple[float, ...], tuple[float, ...]] = {}
+    cameras: tuple[CameraFloats, ...]
+    rows: np.ndarray
 
-    def point(self, q: tuple[float, ...]) -> tuple[float, ...]:
-        p = self._memo.get(q)
-        if p is None:
-            if len(self._memo) >= CACHE_SIZE:
-                self._memo.clear()
-            p = self._memo[q] = triangulate_elementwise(self.cameras, q)
-        return p
+
+def goal_distances(goals: GoalPoints, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+    """Distances (N,) m between the triangulated points of the goals ``achieved`` and
+    ``desired`` (4, N) px: the compiled kernel when numba is installed, else the same
+    operations on arrays (the same bits)."""
+    if pinhole_kernels.ENABLED:
+        out = np.empty(achieved.shape[1])
+        pinhole_kernels.goal_distances(goals.rows, achieved, desired, out)
+        return out
+    return distance_elementwise(
+        triangulate_elementwise(goals.cameras, achieved),
+        triangulate_elementwise(goals.cameras, desired),
+    )
 
 
 def _seen(info: Mapping[str, Any]) -> bool:
@@ -76,25 +80,23 @@ def seen_flags(info: Any, shape: tuple[int, ...]) -> bool | np.ndarray:
 
 def reward_terms(
     goals: GoalPoints,
-    achieved: Sequence[Any],
-    desired: Sequence[Any],
+    achieved: np.ndarray,
+    desired: np.ndarray,
     seen: bool | np.ndarray,
     penalty: float,
 ) -> tuple[Any, Any]:
     """(reward_distance, reward_unseen) in metres, elementwise.
 
     Args:
-        goals: the stereo rig's two cameras (and remembered single points).
-        achieved, desired: four pixel coordinates each, Python floats for one transition or
-            arrays of the batch shape.
-        seen: effector marker seen, bool or bool array of the batch shape.
+        goals: the stereo rig's two cameras.
+        achieved, desired: goals (4, *shape) px of one batch shape (``()`` for one transition).
+        seen: effector marker seen, bool for one transition or a bool array of the batch shape.
         penalty: what an unseen marker costs, metres (> 0).
+    Returns:
+        floats for one transition, arrays of the batch shape otherwise.
     """
-    if isinstance(seen, bool):  # one transition, Python floats
-        distance = distance_elementwise(goals.point(tuple(achieved)), goals.point(tuple(desired)))
-        return -distance, 0.0 if seen else -float(penalty)
-    distance = distance_elementwise(
-        triangulate_elementwise(goals.cameras, achieved),
-        triangulate_elementwise(goals.cameras, desired),
-    )
-    return -distance, np.where(seen, 0.0, -penalty)
+    shape = achieved.shape[1:]
+    distance = goal_distances(goals, achieved.reshape(4, -1), desired.reshape(4, -1))
+    if isinstance(seen, bool):  # one transition
+        return -float(distance[0]), 0.0 if seen else -float(penalty)
+    return -distance.reshape(shape), np.where(seen, 0.0, -penalty)

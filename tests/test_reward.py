@@ -193,13 +193,3 @@ def test_kinematic_moves_leave_the_positions_mj_forward_gives(robot, joints):
     mujoco.mj_forward(env.model, fresh)
     for name in ("xpos", "xmat", "site_xpos", "geom_xpos", "geom_xmat", "cam_xpos", "cam_xmat"):
         np.testing.assert_array_equal(getattr(env.data, name), getattr(fresh, name), err_msg=name)
-
-
-def test_project_point_matches_the_array_projection():
-    env = ReachEnv(robot="puma560", sensing="project", control="kinematic")
-    points = np.random.default_rng(46).uniform([-1, -0.5, -0.4], [1, 1.5, 1.6], (20, 3))  # m
-    pixels, depth = env.stereo.project_with_depth(points)
-    for p, uv, d in zip(points, pixels, depth, strict=True):
-        got_uv, got_d = env.stereo.project_point(p)
-        np.testing.assert_allclose(got_uv, uv, rtol=1e-12, atol=1e-9)
-        np.testing.assert_allclose(got_d, d, rtol=1e-12)

@@ -22,13 +22,13 @@ env and its sensor stay picklable.
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from envs.sensing import pinhole_kernels
 from envs.sensing.foveated import FoveatedSensing
 from envs.sensing.marker_detection import MarkerColour
 from envs.sensing.stereo import StereoRig
@@ -102,21 +102,34 @@ class ProjectSensor(Sensor):
         self.stereo, self.target, self.effector = stereo, target, effector
 
     def sense_target(self, data: mujoco.MjData) -> Sighting:
-        return joined([self._project(data.geom_xpos[g]) for g in self.target])
+        return self._sight(data.geom_xpos[self.target])
 
     def sense_effector(self, data: mujoco.MjData, expected: np.ndarray) -> Sighting:
-        return joined([self._project(data.geom_xpos[g]) for g in self.effector])
+        return self._sight(data.geom_xpos[self.effector])
 
-    def _project(self, point: np.ndarray) -> Sighting:
-        (u1, v1, u2, v2), (d1, d2) = self.stereo.project_point(point)
-        u_max, v_max = self.stereo.width - 1, self.stereo.height - 1
-        left = d1 > 0 and 0 <= u1 <= u_max and 0 <= v1 <= v_max
-        right = d2 > 0 and 0 <= u2 <= u_max and 0 <= v2 <= v_max
-        nan = math.nan
-        pixels = [u1, v1, u2, v2] if left and right else [
-            u1 if left else nan, v1 if left else nan, u2 if right else nan, v2 if right else nan
-        ]  # fmt: skip
-        return np.array(pixels), np.array([left, right])
+    def _sight(self, centres: np.ndarray) -> Sighting:
+        stereo = self.stereo
+        return sight(stereo.pixel_projections, centres, stereo.width - 1, stereo.height - 1)
+
+
+def sight(projection: np.ndarray, points: np.ndarray, u_max: float, v_max: float) -> Sighting:
+    """Where both cameras see world points (M, 3) m: pixels (4M,) [u1, v1, u2, v2 per point],
+    NaN where a camera does not see the point, and per point and camera whether it does (2M,):
+    a point in front of the camera (depth > 0) whose image lies in [0, u_max] × [0, v_max].
+    ``projection`` (4, 6): both cameras' pixel projections (``CameraPair.pixel_projections``).
+    The compiled kernel when numba is installed, else the same operations on arrays."""
+    pixels, visible = np.empty((len(points), 4)), np.empty((len(points), 2), dtype=bool)
+    if pinhole_kernels.ENABLED:
+        pinhole_kernels.sight(projection, points, u_max, v_max, pixels, visible)
+        return pixels.reshape(-1), visible.reshape(-1)
+    x, y, z = points[:, 0:1], points[:, 1:2], points[:, 2:3]  # (M, 1) each
+    h = projection[0] * x + projection[1] * y + projection[2] * z + projection[3]  # (M, 6)
+    depth = h[:, 2::3]  # (M, 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u, v = h[:, 0::3] / depth, h[:, 1::3] / depth  # (M, 2) each
+    visible[:] = (depth > 0.0) & (0.0 <= u) & (u <= u_max) & (0.0 <= v) & (v <= v_max)
+    pixels[:, 0::2], pixels[:, 1::2] = np.where(visible, u, np.nan), np.where(visible, v, np.nan)
+    return pixels.reshape(-1), visible.reshape(-1)
 
 
 class RenderSensor(Sensor):

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from envs.sensing import pinhole_kernels
 from envs.sensing.marker_detection import (
     MarkerColour,
     find_blob,
@@ -24,7 +25,7 @@ from envs.sensing.marker_detection import (
 )
 from envs.sensing.marker_fit import CameraOutline, locate
 from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
-from envs.sensing.triangulation import camera_floats, triangulate_elementwise
+from envs.sensing.triangulation import camera_array, camera_floats, triangulate_elementwise
 from envs.sensing.viewports import View, ViewportRenderer, Window
 
 if TYPE_CHECKING:
@@ -143,21 +144,18 @@ class CameraPair:
         self._projection = {
             n: np.vstack([c.projection_matrix(n) for c in self.cameras]).T for n in (False, True)
         }
-        self._rows_of: dict | None = None  # _projection when _rows was read from it
-        self._rows: list[list[float]] = []  # pixel projection rows as floats (project_point)
+        #: Both cameras as rows (2, 16) of :func:`envs.sensing.triangulation.camera_array`.
+        self.camera_rows = np.stack([camera_array(c) for c in self.cameras])
+
+    @property
+    def pixel_projections(self) -> np.ndarray:
+        """Both cameras' pixel projections stacked, (4, 6): [p, 1] @ P = (d1 u1, d1 v1, d1,
+        d2 u2, d2 v2, d2)."""
+        return self._projection[False]
 
     def project(self, points: np.ndarray, normalized: bool = False) -> np.ndarray:
         """World points (N, 3) -> (N, 4) pixels (or normalised coordinates) in both cameras."""
         return self.project_with_depth(points, normalized)[0]
-
-    def project_point(self, point: np.ndarray) -> tuple[list[float], list[float]]:
-        """One world point (3,) -> pixels [u1, v1, u2, v2] and depths [d1, d2] (m) as Python
-        floats: :meth:`project_with_depth` for a single point, without array overhead."""
-        if self._rows_of is not self._projection:  # the rig's matrices were replaced
-            self._rows_of, self._rows = self._projection, self._projection[False].T.tolist()
-        x, y, z = point.tolist()
-        h = [a * x + b * y + c * z + d for a, b, c, d in self._rows]  # (6,) d1 u1, d1 v1, d1, ...
-        return [h[0] / h[2], h[1] / h[2], h[3] / h[5], h[4] / h[5]], [h[2], h[5]]
 
     def project_with_depth(
         self, points: np.ndarray, normalized: bool = False
@@ -177,14 +175,16 @@ class CameraPair:
         (r_y + y r_z)·(p - c) = 0; the four are solved for p in the least-squares sense
         (:func:`envs.sensing.triangulation.triangulate_elementwise`).
         """
-        q = np.atleast_2d(np.asarray(pixels, dtype=float))  # (N, 4)
-        cameras = [camera_floats(c) for c in self.cameras]
-        if len(q) == 1:  # one point in Python floats: the same bits, 20 times faster
+        q = np.atleast_2d(np.asarray(pixels, dtype=float)).T  # (4, N)
+        if pinhole_kernels.ENABLED:
+            out = np.empty((q.shape[1], 3))
             try:
-                return np.array([triangulate_elementwise(cameras, q[0].tolist(), normalized)])
-            except ZeroDivisionError:  # degenerate cameras: the arrays' inf and NaN
+                pinhole_kernels.triangulate(self.camera_rows, q, normalized, out)
+                return out
+            except ZeroDivisionError:  # degenerate cameras: the numpy path's inf and NaN
                 pass
-        return np.stack(triangulate_elementwise(cameras, q.T, normalized), axis=-1)
+        cameras = [camera_floats(c) for c in self.cameras]
+        return np.stack(triangulate_elementwise(cameras, q, normalized), axis=-1)
 
 
 class SphereSighting(NamedTuple):

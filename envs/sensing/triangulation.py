@@ -34,6 +34,13 @@ def camera_floats(camera) -> CameraFloats:
     )
 
 
+def camera_array(camera) -> np.ndarray:
+    """:func:`camera_floats` as one row (16,) for the compiled kernels: r_x, r_y, r_z, their dot
+    products with the camera position, f_u, f_v, c_u, c_v."""
+    (rx, ry, rz), offsets, focal, centre = camera_floats(camera)
+    return np.array([*rx, *ry, *rz, *offsets, *focal, *centre])
+
+
 def triangulate_elementwise(
     cameras: Sequence[CameraFloats], q: Sequence[Number] | np.ndarray, normalized: bool = False
 ) -> tuple[Number, Number, Number]:
