@@ -51,7 +51,9 @@ def points_around(env: ReachEnv, n: int, seed: int) -> np.ndarray:
 def test_sight_is_the_matrix_projection_and_its_visibility_rule(puma):
     stereo = puma.stereo
     points = points_around(puma, 400, 1)
-    pixels, visible = sight(stereo.pixel_projections, points, stereo.width - 1, stereo.height - 1)
+    pixels, visible = sight(
+        stereo.pixel_projections, points, np.arange(len(points)), *stereo.pixel_max
+    )
     pixels, visible = pixels.reshape(-1, 4), visible.reshape(-1, 2)
     with np.errstate(divide="ignore", invalid="ignore"):
         uv, depth = stereo.project_with_depth(points)  # p @ P: another order of the sums
@@ -69,7 +71,7 @@ def test_sight_is_the_matrix_projection_and_its_visibility_rule(puma):
 def test_sight_kernel_is_the_numpy_path_bit_for_bit(puma, monkeypatch):
     stereo = puma.stereo
     points = points_around(puma, 400, 2)
-    args = (stereo.pixel_projections, points, stereo.width - 1, stereo.height - 1)
+    args = (stereo.pixel_projections, points, np.arange(len(points)), *stereo.pixel_max)
     fast = sight(*args)
     reference = numpy_path(monkeypatch, sight, *args)
     assert same_bits(fast[0], reference[0]) and same_bits(fast[1], reference[1])

@@ -25,19 +25,16 @@ ENABLED = available()
 
 @jit
 def sight(
-    projection: np.ndarray,
-    points: np.ndarray,
-    u_max: float,
-    v_max: float,
-    pixels: np.ndarray,
-    visible: np.ndarray,
-) -> None:
-    """Fills ``pixels`` (M, 4) [u1, v1, u2, v2] px and ``visible`` (M, 2) bool for world points
-    ``points`` (M, 3) m: ``projection`` (4, 6) maps [p, 1] to (d1 u1, d1 v1, d1, d2 u2, d2 v2,
-    d2); a camera sees a point in front of it (d > 0) whose image lies in [0, u_max] × [0,
-    v_max], and its pixels are NaN where it does not."""
-    for m in range(points.shape[0]):
-        x, y, z = points[m, 0], points[m, 1], points[m, 2]
+    projection: np.ndarray, xpos: np.ndarray, ids: np.ndarray, u_max: float, v_max: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pixels (4M,) [u1, v1, u2, v2 per point] and visibility (2M,) per point and camera of the
+    world points ``xpos[ids]`` (M, 3) m: ``projection`` (4, 6) maps [p, 1] to (d1 u1, d1 v1,
+    d1, d2 u2, d2 v2, d2); a camera sees a point in front of it (d > 0) whose image lies in
+    [0, u_max] × [0, v_max], and its pixels are NaN where it does not."""
+    pixels = np.empty(4 * len(ids))
+    visible = np.empty(2 * len(ids), dtype=np.bool_)
+    for m in range(len(ids)):
+        x, y, z = xpos[ids[m], 0], xpos[ids[m], 1], xpos[ids[m], 2]
         for k in range(2):
             c = 3 * k  # the camera's columns: d u, d v, d
             du = projection[0, c] * x + projection[1, c] * y + projection[2, c] * z
@@ -49,9 +46,10 @@ def sight(
             if d > 0.0:
                 u, v = du / d, dv / d
                 seen = 0.0 <= u <= u_max and 0.0 <= v <= v_max
-            visible[m, k] = seen
-            pixels[m, 2 * k] = u if seen else np.nan
-            pixels[m, 2 * k + 1] = v if seen else np.nan
+            visible[2 * m + k] = seen
+            pixels[4 * m + 2 * k] = u if seen else np.nan
+            pixels[4 * m + 2 * k + 1] = v if seen else np.nan
+    return pixels, visible
 
 
 @jit
@@ -100,14 +98,14 @@ def triangulate(cameras: np.ndarray, q: np.ndarray, normalized: bool, out: np.nd
 
 
 @jit
-def goal_distances(
-    cameras: np.ndarray, achieved: np.ndarray, desired: np.ndarray, out: np.ndarray
-) -> None:
-    """Fills ``out`` (N,) m with the distances between the triangulated points of the goals
-    ``achieved`` and ``desired`` (4, N) px; ``cameras`` (2, 16) as
+def goal_distances(cameras: np.ndarray, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+    """Distances (N,) m between the triangulated points of the goals ``achieved`` and
+    ``desired`` (4, N) px; ``cameras`` (2, 16) as
     :func:`envs.sensing.triangulation.camera_array` lays them out."""
-    for j in range(out.shape[0]):
+    out = np.empty(achieved.shape[1])
+    for j in range(len(out)):
         p = _triangulate(cameras, achieved, j, False)
         q = _triangulate(cameras, desired, j, False)
         dx, dy, dz = p[0] - q[0], p[1] - q[1], p[2] - q[2]
         out[j] = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return out

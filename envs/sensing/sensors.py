@@ -102,32 +102,33 @@ class ProjectSensor(Sensor):
         self.stereo, self.target, self.effector = stereo, target, effector
 
     def sense_target(self, data: mujoco.MjData) -> Sighting:
-        return self._sight(data.geom_xpos[self.target])
+        stereo = self.stereo
+        return sight(stereo.pixel_projections, data.geom_xpos, self.target, *stereo.pixel_max)
 
     def sense_effector(self, data: mujoco.MjData, expected: np.ndarray) -> Sighting:
-        return self._sight(data.geom_xpos[self.effector])
-
-    def _sight(self, centres: np.ndarray) -> Sighting:
         stereo = self.stereo
-        return sight(stereo.pixel_projections, centres, stereo.width - 1, stereo.height - 1)
+        return sight(stereo.pixel_projections, data.geom_xpos, self.effector, *stereo.pixel_max)
 
 
-def sight(projection: np.ndarray, points: np.ndarray, u_max: float, v_max: float) -> Sighting:
-    """Where both cameras see world points (M, 3) m: pixels (4M,) [u1, v1, u2, v2 per point],
-    NaN where a camera does not see the point, and per point and camera whether it does (2M,):
-    a point in front of the camera (depth > 0) whose image lies in [0, u_max] × [0, v_max].
-    ``projection`` (4, 6): both cameras' pixel projections (``CameraPair.pixel_projections``).
-    The compiled kernel when numba is installed, else the same operations on arrays."""
-    pixels, visible = np.empty((len(points), 4)), np.empty((len(points), 2), dtype=bool)
+def sight(
+    projection: np.ndarray, xpos: np.ndarray, ids: np.ndarray, u_max: float, v_max: float
+) -> Sighting:
+    """Where both cameras see the world points ``xpos[ids]`` (M, 3) m: pixels (4M,) [u1, v1,
+    u2, v2 per point], NaN where a camera does not see the point, and per point and camera
+    whether it does (2M,): a point in front of the camera (depth > 0) whose image lies in
+    [0, u_max] × [0, v_max]. ``projection`` (4, 6): both cameras' pixel projections
+    (``CameraPair.pixel_projections``). The compiled kernel when numba is installed, else the
+    same operations on arrays."""
     if pinhole_kernels.ENABLED:
-        pinhole_kernels.sight(projection, points, u_max, v_max, pixels, visible)
-        return pixels.reshape(-1), visible.reshape(-1)
+        return pinhole_kernels.sight(projection, xpos, ids, u_max, v_max)
+    points = xpos[ids]
     x, y, z = points[:, 0:1], points[:, 1:2], points[:, 2:3]  # (M, 1) each
     h = projection[0] * x + projection[1] * y + projection[2] * z + projection[3]  # (M, 6)
     depth = h[:, 2::3]  # (M, 2)
     with np.errstate(divide="ignore", invalid="ignore"):
         u, v = h[:, 0::3] / depth, h[:, 1::3] / depth  # (M, 2) each
-    visible[:] = (depth > 0.0) & (0.0 <= u) & (u <= u_max) & (0.0 <= v) & (v <= v_max)
+    visible = (depth > 0.0) & (0.0 <= u) & (u <= u_max) & (0.0 <= v) & (v <= v_max)
+    pixels = np.empty((len(points), 4))
     pixels[:, 0::2], pixels[:, 1::2] = np.where(visible, u, np.nan), np.where(visible, v, np.nan)
     return pixels.reshape(-1), visible.reshape(-1)
 

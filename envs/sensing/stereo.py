@@ -216,6 +216,8 @@ class StereoRig(CameraPair):
         if len(cameras) != 2:
             raise ValueError(f"a stereo rig needs two camera names, got {list(cameras)}")
         self.model, self.height, self.width = model, height, width
+        #: The largest pixel coordinates (u, v) of an image, px.
+        self.pixel_max = (float(width - 1), float(height - 1))
         self.camera_names = tuple(cameras)
         self.refresh(data)
         # Both cameras side by side in one buffer, rendered and read back together.

@@ -1,9 +1,9 @@
 """Stereo triangulation in closed form, elementwise: the same bits for one point or a batch.
 
-Every operation is an IEEE-754 ``+``, ``-``, ``*``, ``/`` or square root, which Python floats and
-NumPy float64 arrays both round correctly. One call on Python floats (a single point, a few
-microseconds) and one on arrays of any shape (a batch) therefore give bit-identical results for
-the same pixels: the reach reward relies on this (``envs.reward``).
+Every operation is an IEEE-754 ``+``, ``-``, ``*``, ``/`` or square root, which NumPy float64
+arrays and the compiled kernel (:func:`envs.sensing.pinhole_kernels.triangulate`, the same
+operations in the same order) both round correctly: the two give bit-identical points for the
+same pixels, whichever the install runs (``envs.reward`` relies on this).
 """
 
 from __future__ import annotations
