@@ -119,7 +119,8 @@ class GraspEnv(ReachEnv):
     three markers along the tool axis).
 
     ## Episode end
-    Never terminates; truncated after ``max_episode_steps`` moves (registered default 4).
+    Never terminates unless ``terminate_on_success`` (as in ``ReachEnv``: at the first move whose
+    ``is_success`` holds); truncated after ``max_episode_steps`` moves (registered default 4).
 
     ## Info
     Everything ``ReachEnv`` gives, over all three markers: ``distance`` (m, ground truth, tool
@@ -152,6 +153,7 @@ class GraspEnv(ReachEnv):
     - ``pixels_width`` (84): width of each camera image of the pixel modes.
     - ``pixels_height`` (84): their height.
     - ``normalize`` (False): action, joints and goals in [-1, 1].
+    - ``terminate_on_success`` (False): end the episode at the first successful move.
     """
 
     REWARD_TERMS = ("reward_distance", "reward_orientation", "reward_unseen")
@@ -172,6 +174,7 @@ class GraspEnv(ReachEnv):
         pixels_width: int = PIXELS_WIDTH,
         pixels_height: int = PIXELS_HEIGHT,
         normalize: bool = False,
+        terminate_on_success: bool = False,
     ) -> None:
         threshold = arguments.positive_number("orientation_threshold (rad)", orientation_threshold)
         #: The range the objects' orientations are drawn from.
@@ -194,6 +197,7 @@ class GraspEnv(ReachEnv):
             obs_mode=obs_mode,
             pixels_width=pixels_width,
             pixels_height=pixels_height,
+            terminate_on_success=terminate_on_success,
         )
         self.orientation_threshold = threshold
         self._object = self.model.body(self.markers.target_body).id

@@ -141,8 +141,8 @@ class ReachEnv(ArmScene):
     built (what the exact baselines triangulate with).
 
     ## Episode end
-    Never terminates; truncated after ``max_episode_steps`` moves (registered default 4: one
-    coarse and three fine).
+    Never terminates unless ``terminate_on_success``; truncated after ``max_episode_steps``
+    moves (registered default 4: one coarse and three fine).
 
     ## Info
     ``distance`` (m, ground truth), ``reward_distance`` and ``reward_unseen`` (m, the reward's
@@ -183,6 +183,9 @@ class ReachEnv(ArmScene):
       pixels are what the learners here and the baselines use, SB3's SAC/TD3 already rescale a
       bounded action space, and ``VecNormalize`` (or this option) fixes the observation scale.
       Turn it on for agents that do not rescale (PPO's Gaussian policy starts with σ = 1).
+    - ``terminate_on_success`` (False): end the episode (``terminated``) at the first move whose
+      ``info["is_success"]`` is true. Off by default: the papers' trial is a fixed coarse and
+      fine moves, and ``gym.make`` truncates every episode after ``MAX_EPISODE_STEPS`` (4) moves.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
@@ -201,7 +204,11 @@ class ReachEnv(ArmScene):
         obs_mode: str = "state",
         pixels_width: int = PIXELS_WIDTH,
         pixels_height: int = PIXELS_HEIGHT,
+        terminate_on_success: bool = False,
     ) -> None:
+        if not isinstance(terminate_on_success, bool):
+            raise ValueError(f"terminate_on_success is {terminate_on_success!r}, not True or False")
+        self.terminate_on_success = terminate_on_success
         if not isinstance(robot, str) or robot not in ROBOTS:
             raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
         if isinstance(joints, bool) or joints not in ROBOTS[robot].joint_options:
@@ -318,7 +325,8 @@ class ReachEnv(ArmScene):
         reward = self._reward(observation, info)
         if self.render_mode == "human":
             self.render()
-        return observation, reward, False, False, info
+        terminated = self.terminate_on_success and info["is_success"]
+        return observation, reward, terminated, False, info
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
