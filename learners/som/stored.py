@@ -66,7 +66,8 @@ def generator(state: Any) -> np.random.Generator:
         ("uinteger", state["uinteger"], _UINT_BITS), ("has_uint32", state["has_uint32"], 1),
     ):  # fmt: skip
         if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < 2**bits:
-            raise ValueError(f"rng_state's {key} is not an integer in [0, 2**{bits})")
+            allowed = "0 or 1" if bits == 1 else f"an integer in [0, 2**{bits})"
+            raise ValueError(f"rng_state's {key} is not {allowed}")
     if inner["inc"] % 2 == 0:  # seeding makes it odd, as PCG needs
         raise ValueError("rng_state's increment is even, which no seeded PCG generator has")
     bit_generator = getattr(np.random, name)()
