@@ -13,6 +13,9 @@ import numpy as np
 #: Inputs more than this many box sizes outside a learner's input box are refused (e.g. pixels
 #: beyond 10 image widths: no camera senses those).
 INPUT_MARGIN = 10.0
+#: No bound of a box or joint range lies farther from 0 than this, in the learner's units
+#: (pixels, metres, radians): no image, workspace or joint is that large.
+BOUND_LIMIT = 1e9
 
 
 def check_finite(**values: object) -> None:
@@ -63,22 +66,46 @@ def positive_int(name: str, value: object) -> int:
 
 def option_number(owner: str, name: str, value: Any, kind: type) -> Any:
     """``value`` as ``kind`` (int or float), else ValueError naming ``owner.name``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise ValueError(f"{owner}.{name} must be a finite {kind.__name__}, got {value!r}")
-    if kind is int and value != int(value):  # type: ignore[call-overload]  # a finite Real
-        raise ValueError(f"{owner}.{name} must be an integer, got {value!r}")
+    try:
+        finite = not isinstance(value, bool) and isinstance(value, numbers.Real)
+        finite = finite and math.isfinite(value)
+    except OverflowError:  # an int beyond any float
+        finite = False
+    if not finite:
+        raise ValueError(f"{owner}.{name} must be a finite {kind.__name__}, got {value!r:.40}")
+    if kind is int and value != int(value):
+        raise ValueError(f"{owner}.{name} must be an integer, got {value!r:.40}")
     return kind(value)
 
 
-def joint_ranges(joint_lower: Any, joint_upper: Any) -> tuple[np.ndarray, np.ndarray]:
-    """(lower, upper) as float arrays (J,), else ValueError: finite, one entry per joint each,
-    lower < upper."""
-    lower = np.array(joint_lower, dtype=float).ravel()
-    upper = np.array(joint_upper, dtype=float).ravel()
-    check_finite(joint_lower=lower, joint_upper=upper)
-    if lower.shape != upper.shape or not np.all(lower < upper):
+def _values(a: np.ndarray) -> str:
+    """``a`` for an error message: its values if there are a few, else its shape."""
+    return str(a.tolist()) if a.size <= 12 else f"of shape {a.shape}"
+
+
+def bounds(
+    names: tuple[str, str], low: Any, high: Any, size: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) as float arrays (n,), else ValueError naming ``names``: finite, of one shape
+    (``size`` entries if given, at least one), low < high, within ±``BOUND_LIMIT``."""
+    lo, hi = np.array(low, dtype=float).ravel(), np.array(high, dtype=float).ravel()
+    pair = f"{names[0]}/{names[1]}"
+    n = lo.size if size is None else size
+    if lo.shape != hi.shape or lo.shape != (n,) or n < 1:
+        raise ValueError(f"{pair} must both have shape ({n},), got {lo.shape} and {hi.shape}")
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        raise ValueError(f"{pair} must be finite, got {_values(lo)} and {_values(hi)}")
+    if not np.all(lo < hi):
+        raise ValueError(f"{pair} need lower < upper, got {_values(lo)} and {_values(hi)}")
+    if max(np.abs(lo).max(), np.abs(hi).max()) > BOUND_LIMIT:
         raise ValueError(
-            f"joint_lower {lower} and joint_upper {upper} need one entry per joint "
-            "with lower < upper"
+            f"{pair} reach {max(np.abs(lo).max(), np.abs(hi).max()):.3g}, beyond "
+            f"±{BOUND_LIMIT:g} (pixels, metres or radians); pass bounds in the learner's units"
         )
-    return lower, upper
+    return lo, hi
+
+
+def joint_ranges(joint_lower: Any, joint_upper: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) as float arrays (J,), else ValueError: :func:`bounds`, one entry per
+    joint each."""
+    return bounds(("joint_lower", "joint_upper"), joint_lower, joint_upper)

@@ -23,10 +23,29 @@ _ARRAYS = "__arrays__"
 _ENCRYPTED = 0x1
 #: Mode of written files before the umask, as open() gives (0644 with the usual umask 022).
 FILE_MODE = 0o666
+#: Foreign text quoted in an error (an exception's message, a stored name) is cut to this many
+#: characters, so that a damaged file's bytes never make the message longer than a line.
+QUOTE_LIMIT = 100
 
 
 class CheckpointError(ValueError):
     """A file that is missing, damaged, or holds something other than what was asked for."""
+
+
+def quoted(text: object, limit: int = QUOTE_LIMIT) -> str:
+    """``text`` on one line (whitespace runs as one space), cut to ``limit`` characters."""
+    line = " ".join(str(text).split())
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+def damaged(path: str | os.PathLike, kind: str, exc: BaseException) -> CheckpointError:
+    """The one-line error of a ``kind`` file at ``path`` whose contents do not fit together,
+    quoting (cut) what was wrong: ``exc``'s message, or the entry a KeyError names."""
+    reason = f"no entry {exc.args[0]!r}" if isinstance(exc, KeyError) and exc.args else exc
+    return CheckpointError(
+        f"{path}: incomplete or inconsistent {kind} checkpoint ({quoted(reason)}); restore it "
+        "from a copy or retrain"
+    )
 
 
 class OutputError(RuntimeError):
@@ -138,19 +157,19 @@ def load_npz(
         raise
     except Exception as exc:  # any other failure to parse these bytes is damage, not a bug
         raise CheckpointError(
-            f"{path}: damaged or truncated ({type(exc).__name__}: {exc}); restore it from a copy "
-            "or retrain"
+            f"{path}: damaged or truncated ({quoted(f'{type(exc).__name__}: {exc}')}); restore "
+            "it from a copy or retrain"
         ) from exc
     if _KIND not in contents or _VERSION not in contents or _CONFIG not in contents:
         raise CheckpointError(f"{path}: not a visuomotor checkpoint (no kind/version/config)")
     found = str(contents.pop(_KIND))
     if found != kind:
-        raise CheckpointError(f"{path}: holds a {found!r}, not a {kind!r}")
+        raise CheckpointError(f"{path}: holds a {quoted(repr(found))}, not a {kind!r}")
     try:
         found_version = int(contents.pop(_VERSION))
         config = json.loads(str(contents.pop(_CONFIG)))
-    except (TypeError, ValueError) as exc:
-        raise CheckpointError(f"{path}: damaged version or configuration ({exc})") from exc
+    except (TypeError, ValueError, OverflowError, RecursionError) as exc:
+        raise CheckpointError(f"{path}: damaged version or configuration ({quoted(exc)})") from exc
     if found_version != version:
         raise CheckpointError(
             f"{path}: format version {found_version}, this code reads version {version}"
@@ -159,9 +178,15 @@ def load_npz(
         raise CheckpointError(f"{path}: the configuration is {type(config).__name__}, not a dict")
     names = config.pop(_ARRAYS, None)  # None: a file from before the list was written
     if names is not None and names != sorted(contents):
+        listed = (
+            set(names)
+            if isinstance(names, list) and all(isinstance(n, str) for n in names)
+            else set()
+        )
+        extra, lacking = sorted(set(contents) - listed), sorted(listed - set(contents))
         raise CheckpointError(
-            f"{path}: holds arrays {sorted(contents)}, its configuration lists {names}; the file "
-            "is damaged"
+            f"{path}: its arrays differ from the list in its configuration (not listed: "
+            f"{quoted(extra, 40)}; missing: {quoted(lacking, 40)}); the file is damaged"
         )
     return config, contents
 
@@ -198,11 +223,13 @@ def _read_archive(path: Path) -> dict[str, np.ndarray]:
             name = info.filename.removesuffix(".npy")
             if info.compress_type != zipfile.ZIP_STORED or info.flag_bits & _ENCRYPTED:
                 raise CheckpointError(
-                    f"{path}: member {info.filename!r} is compressed or encrypted, which save() "
-                    "never writes; the file is damaged or foreign"
+                    f"{path}: member {quoted(repr(info.filename), 40)} is compressed or "
+                    "encrypted, which save() never writes; the file is damaged or foreign"
                 )
             if name == info.filename or name in contents:
-                raise CheckpointError(f"{path}: unexpected member {info.filename!r}")
+                raise CheckpointError(
+                    f"{path}: unexpected member {quoted(repr(info.filename), 40)}"
+                )
             with archive.open(info) as member:
                 version = np.lib.format.read_magic(member)
                 if version == (1, 0):
@@ -212,8 +239,9 @@ def _read_archive(path: Path) -> dict[str, np.ndarray]:
                 size = math.prod(shape) * dtype.itemsize
                 if dtype.hasobject or member.tell() + size != info.file_size:
                     raise CheckpointError(
-                        f"{path}: array {name!r} ({dtype} {shape}) does not match its "
-                        f"{info.file_size} stored bytes; the file is damaged"
+                        f"{path}: array {quoted(repr(name), 40)} ({quoted(dtype, 30)} "
+                        f"{quoted(shape, 40)}) does not match its {info.file_size} stored "
+                        "bytes; the file is damaged"
                     )
                 data = member.read(size)
                 member.read()  # to the end: zipfile checks the CRC there

@@ -19,6 +19,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, TypeVar
 
 from learners.som.options import (
+    OPTION_LIMIT,
     check_common,
     entries,
     from_entries,
@@ -73,6 +74,12 @@ NOISE_TERMS = 3
 NOISE_SKIP = 5
 #: Std of the initial A_r entries as a fraction of mean joint span / mean input span.
 DEFAULT_A_INIT = 0.1
+#: ... at most this: a thousand joint spans per input span is far from any map that reaches.
+MAX_A_INIT = 1e3
+#: Inputs a map may have (4 for two cameras' pixels); more is damage or a typing error.
+MAX_INPUT_DIM = 1000
+#: Trials a schedule may run over: 2^53, every count up to it exact as a float.
+MAX_T_MAX = 2**53
 
 #: The θ* the outputs learn towards (``theta_target``): the error sensed after the coarse move
 #: (θ_s + A_s(u − v0), MRS) or after the fine move (θ1 + A_s(w_s − v1), Brause 3.9).
@@ -194,13 +201,12 @@ class SOMConfig:
                 f"{MAX_NEURONS:,} fit in memory (a 40x40x40 lattice has 64,000)"
             )
         object.__setattr__(self, "lattice", lattice)
-        for name, kind, least in (
-            ("input_dim", int, 1), ("t_max", int, 1), ("a_init", float, 0), ("min_dv", float, 0),
-            ("sensing_noise", float, 0),
+        for name, kind, least, most in (
+            ("input_dim", int, 1, MAX_INPUT_DIM), ("t_max", int, 1, MAX_T_MAX),
+            ("a_init", float, 0, MAX_A_INIT), ("min_dv", float, 0, OPTION_LIMIT),
+            ("sensing_noise", float, 0, OPTION_LIMIT),
         ):  # fmt: skip
-            value = number(_OWNER, name, getattr(self, name), kind)
-            if value < least:
-                raise ValueError(f"SOMConfig.{name} must be >= {least}, got {value}")
+            value = number(_OWNER, name, getattr(self, name), kind, least, most)
             object.__setattr__(self, name, value)
         harmonic(self.gamma.initial, self.gamma.final, 0, self.t_max)  # raises for a bad gamma
         if self.continual is not None and not isinstance(self.continual, Continual):

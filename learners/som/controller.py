@@ -24,9 +24,10 @@ from typing import Any
 import numpy as np
 
 from learners.base import Array, Learner, check_pixels
-from learners.guards import InputBox, check_finite, joint_ranges
-from learners.persistence import CheckpointError, load_npz, save_npz
+from learners.guards import InputBox, bounds, check_finite, joint_ranges
+from learners.persistence import damaged, load_npz, save_npz
 from learners.som import kernels
+from learners.som import stored as checked
 from learners.som.compiled_path import PRUNED_SEARCH_MIN, CompiledPath
 from learners.som.config import (
     ABAR,
@@ -49,23 +50,20 @@ from learners.som.config import (
 from learners.som.fine_memory import FineMemory
 from learners.som.lattice import Lattice
 from learners.som.local_fit import local_abar
-from learners.som.options import check_counts, restored_generator
 from learners.som.protocols import choose
 from learners.som.recovery import recovery_move
 from learners.som.schedules import ErrorMonitor
 from learners.som.state import MapState
+from learners.som.stored import A_LIMIT
 
 __all__ = [
-    "ABAR", "AVERAGING", "DEFAULT_A_INIT", "DEFAULT_EPS", "DEFAULT_EPS_OUT", "DEFAULT_EXPLORE",
-    "DEFAULT_GAMMA", "DEFAULT_MIN_DV", "DEFAULT_SIGMA", "DEFAULT_SIGMA_OUT", "DEFAULT_T_MAX",
-    "FORMAT_VERSION", "KERNELS", "KIND", "PROTOCOLS", "RULES", "THETA_TARGETS", "SOMConfig",
-    "VisuomotorSOM", "kernels",
+    "ABAR", "AVERAGING", "A_LIMIT", "DEFAULT_A_INIT", "DEFAULT_EPS", "DEFAULT_EPS_OUT",
+    "DEFAULT_EXPLORE", "DEFAULT_GAMMA", "DEFAULT_MIN_DV", "DEFAULT_SIGMA", "DEFAULT_SIGMA_OUT",
+    "DEFAULT_T_MAX", "FORMAT_VERSION", "KERNELS", "KIND", "PROTOCOLS", "RULES", "THETA_TARGETS",
+    "SOMConfig", "VisuomotorSOM", "kernels",
 ]  # fmt: skip
 
 KERNELS = ("auto", "numba", "numpy")
-#: |A_ij| beyond this many joint spans per input span is refused as damage: a Widrow-Hoff step
-#: changes A by at most a joint span per |Δv| >= ``min_dv``, so learning never gets near it.
-A_LIMIT = 1e9
 KIND = "VisuomotorSOM"
 FORMAT_VERSION = 1
 #: act_batch works in blocks of this many targets: larger matrix products make OpenBLAS start
@@ -151,11 +149,12 @@ class VisuomotorSOM(Learner):
         self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
         c = self._config
         D, J = c.input_dim, self.n_joints
-        low = np.zeros(D) if input_low is None else np.array(input_low, dtype=float).ravel()
-        high = np.ones(D) if input_high is None else np.array(input_high, dtype=float).ravel()
-        check_finite(input_low=low, input_high=high)
-        if low.shape != (D,) or high.shape != (D,) or not np.all(low < high):
-            raise ValueError(f"input_low/input_high must be ({D},) with low < high: {low}, {high}")
+        low, high = bounds(
+            ("input_low", "input_high"),
+            np.zeros(D) if input_low is None else input_low,
+            np.ones(D) if input_high is None else input_high,
+            D,
+        )
         self.input_low, self.input_high = low, high
         self._input_box = InputBox(low, high, "input box")
         self._joint_box = InputBox(self.lower, self.upper, "joint ranges")
@@ -306,13 +305,7 @@ class VisuomotorSOM(Learner):
     @A.setter
     def A(self, value: np.ndarray) -> None:
         a = self._checked("A", value, self.learned.A.shape)
-        joint_span = (self.upper - self.lower)[:, None]  # (J, 1)
-        limit = A_LIMIT * joint_span / (self.input_high - self.input_low)  # (J, D)
-        if not np.all(np.abs(a) <= limit):
-            raise ValueError(
-                f"A has entries up to {np.abs(a).max():.3g}, beyond {A_LIMIT:g} joint spans per "
-                "input span, which no trial can teach; the values are damaged"
-            )
+        checked.check_linear_map("A", a, self.upper - self.lower, self.input_high - self.input_low)
         self.learned.A = a
 
     @staticmethod
@@ -605,43 +598,32 @@ class VisuomotorSOM(Learner):
         """
         stored, arrays = load_npz(path, KIND, FORMAT_VERSION)
         try:
-            check_counts(stored)
+            t, skipped = checked.counts(stored)
             config = SOMConfig.from_dict(stored)
-            bit_generator = restored_generator(stored["rng_state"])
-            w = arrays["w"]  # the arrays' sizes before the lattice's: no huge allocation
-            if w.shape != (math.prod(config.lattice), config.input_dim):
-                raise CheckpointError(
-                    f"{path}: array 'w' is {w.shape}, the stored lattice {config.lattice} and "
-                    f"input_dim {config.input_dim} need ({math.prod(config.lattice)}, "
-                    f"{config.input_dim}); the file is damaged or foreign"
-                )
+            rng = checked.generator(stored["rng_state"])
+            lower, upper = checked.ranges(arrays, "joint_lower", "joint_upper")
+            D = config.input_dim
+            low, high = checked.ranges(arrays, "input_low", "input_high", D)
+            N, J = math.prod(config.lattice), len(lower)
+            # the arrays' sizes before the lattice's: no huge allocation follows a damaged lattice
+            w, theta, A = (
+                checked.array(arrays, name, shape)
+                for name, shape in (("w", (N, D)), ("theta", (N, J)), ("A", (N, J, D)))
+            )
+            checked.within("theta", theta, lower, upper, "the stored joint ranges")
             som = cls(
-                arrays["joint_lower"], arrays["joint_upper"], config, rng=0,
-                input_low=arrays["input_low"], input_high=arrays["input_high"], kernel=kernel,
+                lower, upper, config, rng=0, input_low=low, input_high=high, kernel=kernel
             )  # fmt: skip
-            for name in ("w", "theta", "A"):
-                array, shape = arrays[name], getattr(som, name).shape
-                if array.shape != shape or array.dtype != np.float64:
-                    raise CheckpointError(
-                        f"{path}: array {name!r} is {array.dtype} {array.shape}, the stored "
-                        f"configuration needs float64 {shape}; the file is damaged or foreign"
-                    )
-                setattr(som, name, array)  # copies, checks finiteness, refreshes caches
-            if not np.all((som.lower <= som.theta) & (som.theta <= som.upper)):
-                raise ValueError("theta lies outside the stored joint ranges")
-            som.t, som.skipped = stored["t"], dict(stored["skipped"])
+            som.w, som.theta, som.A = w, theta, A  # copies; w in the input box, A bounded
+            som.t, som.skipped = t, skipped
             if som._monitor is not None:
-                som._monitor = ErrorMonitor(som._monitor.params, stored["continual_state"])
-            som.rng = np.random.Generator(bit_generator)
-            som.memory.take(FineMemory.from_arrays(arrays, som.n_joints, config.input_dim))
+                state = checked.monitor_state(stored["continual_state"], t)
+                som._monitor = ErrorMonitor(som._monitor.params, state)
+            som.rng = rng
+            som.memory.take(FineMemory.from_arrays(arrays, lower, upper, som._input_box))
             som._sync()
-        except CheckpointError:
-            raise
-        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
-            raise CheckpointError(
-                f"{path}: incomplete or inconsistent VisuomotorSOM checkpoint ({exc!r}); "
-                "restore it from a copy or retrain"
-            ) from exc
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
+            raise damaged(path, KIND, exc) from exc
         return som
 
 

@@ -12,13 +12,16 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from learners.guards import check_finite
+from learners.guards import InputBox
+from learners.som import stored
 
 #: The fields of the memory in a checkpoint: the names the first files gave them.
 _STORED = {
     "u": "_u", "cmd": "_cmd", "abar": "_abar", "v": "_v", "cmd_before": "_cmd_before",
     "seen_cmd": "_seen_cmd", "seen_v": "_seen_v",
 }  # fmt: skip
+#: The fields that hold joint commands (the others: positions in input space, and Ā).
+_COMMANDS = ("cmd", "cmd_before", "seen_cmd")
 
 
 @dataclass(eq=False)
@@ -81,21 +84,30 @@ class FineMemory:
         return out
 
     @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray], J: int, D: int) -> FineMemory:
-        """The memory a checkpoint stored for a map of J joints and D inputs (copies).
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], lower: np.ndarray, upper: np.ndarray, inputs: InputBox
+    ) -> FineMemory:
+        """The memory a checkpoint stored for a map of joint ranges [lower, upper] (J,) and
+        input box ``inputs`` (D,) (copies): what the moves could have left there, positions in
+        the margin around the box, commands in the joint ranges (every command is clipped), Ā
+        within the limit of the map's A (``learners.som.stored``).
 
         Raises:
-            ValueError: a stored field of another shape or dtype, or not finite.
+            ValueError: a stored field of another shape or dtype, not finite, or out of range.
         """
+        J, D = len(lower), len(inputs.low)
         shapes = {"u": (D,), "cmd": (J,), "abar": (J, D), "v": (D,), "cmd_before": (J,),
                   "seen_cmd": (J,), "seen_v": (D,)}  # fmt: skip
         memory = cls()
         for name, key in _STORED.items():
-            stored = arrays.get(key)
-            if stored is None:
+            if key not in arrays:
                 continue
-            if stored.shape != shapes[name] or stored.dtype != float:
-                raise ValueError(f"{key} is {stored.dtype} {stored.shape}, not {shapes[name]}")
-            check_finite(**{key: stored})
-            setattr(memory, name, stored.copy())
+            value = stored.array(arrays, key, shapes[name])
+            if name in _COMMANDS:
+                stored.within(key, value, lower, upper, "the joint ranges")
+            elif name == "abar":
+                stored.check_linear_map(key, value, upper - lower, inputs.high - inputs.low)
+            elif not inputs.inside(value):
+                raise ValueError(f"array {key!r} lies beyond the margin around the {inputs.what}")
+            setattr(memory, name, value.copy())
         return memory

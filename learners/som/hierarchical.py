@@ -17,12 +17,12 @@ from typing import Any
 import numpy as np
 
 from learners.base import Array, Learner
-from learners.guards import InputBox, check_finite, joint_ranges
-from learners.persistence import CheckpointError, load_npz, save_npz
+from learners.guards import INPUT_MARGIN, InputBox, check_finite, joint_ranges
+from learners.persistence import damaged, load_npz, save_npz
 from learners.pose_pixels import PIXELS, check_pose_pixels
+from learners.som import stored as checked
 from learners.som.hierarchical_config import HierarchicalConfig
 from learners.som.lattice import Lattice
-from learners.som.options import check_counts, restored_generator
 
 KIND = "HierarchicalSOM"
 FORMAT_VERSION = 1
@@ -374,34 +374,49 @@ class HierarchicalSOM(Learner):
 
         Raises:
             CheckpointError: a missing, damaged or foreign file, or contents that do not fit
-                together (shapes, non-finite values, θ outside the stored joint ranges).
+                together (shapes, dtypes, non-finite values, values beyond where learning
+                can take them: `learners/som/stored.py`).
         """
         entries, arrays = load_npz(path, KIND, FORMAT_VERSION)
         try:
             config = HierarchicalConfig.from_dict(entries)
-            check_counts(entries)
-            t, skipped = entries["t"], entries["skipped"]
-            bit_generator = restored_generator(entries["rng_state"])
-            lower, upper = arrays["joint_lower"], arrays["joint_upper"]
+            t, skipped = checked.counts(entries)
+            rng = checked.generator(entries["rng_state"])
+            lower, upper = checked.ranges(arrays, "joint_lower", "joint_upper")
             P, Q, J = config.n_positions, config.n_orientations, len(lower)
             shapes = {
                 "w_pos": (P, 4), "w_ori": (P, Q, 8), "theta": (P, Q, J), "A": (P, Q, J, PIXELS),
-                "df_cov": (PIXELS, PIXELS), "joint_lower": (J,), "joint_upper": (J,),
+                "df_cov": (PIXELS, PIXELS),
             }  # fmt: skip
-            for name, shape in shapes.items():
-                stored = arrays[name]
-                if stored.shape != shape or stored.dtype != np.float64:
-                    raise ValueError(
-                        f"array {name!r} is {stored.dtype} {stored.shape}, not {shape}"
-                    )
-                check_finite(**{name: stored})
-            som = cls(lower, upper, np.clip(arrays["theta"][0, 0], lower, upper), config, rng=0)
-            if not np.all((lower <= arrays["theta"]) & (arrays["theta"] <= upper)):
-                raise ValueError("theta lies outside the stored joint ranges")
-            som._take(arrays, t, skipped, bit_generator)
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise CheckpointError(
-                f"{path}: incomplete or inconsistent {KIND} checkpoint ({exc}); restore it from "
-                "a copy or retrain"
-            ) from exc
+            learned = {name: checked.array(arrays, name, shape) for name, shape in shapes.items()}
+            _check_learned(learned, config, lower, upper)
+            som = cls(lower, upper, learned["theta"][0, 0], config, rng=0)
+            som._take(learned, t, skipped, rng.bit_generator)
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
+            raise damaged(path, KIND, exc) from exc
         return som
+
+
+def _check_learned(
+    arrays: dict[str, np.ndarray], config: HierarchicalConfig, lower: np.ndarray, upper: np.ndarray
+) -> None:
+    """ValueError unless the learned arrays lie where learning can take them: θ in the joint
+    ranges, the nodes' weights within the features of pixels in the margin around the image
+    (every update moves them towards such features), A within the reach map's limit per feature
+    span, and C (a running mean of Δf Δfᵀ from the identity) symmetric with a diagonal >= 0 and
+    no entry beyond the square of the largest feature change."""
+    checked.within("theta", arrays["theta"], lower, upper, "the stored joint ranges")
+    image = np.tile(np.array(config.image_size, dtype=float), 2)  # (4,) one marker's pixels
+    checked.within(
+        "w_pos", arrays["w_pos"], -INPUT_MARGIN * image, (1 + INPUT_MARGIN) * image,
+        "the margin around the image",
+    )  # fmt: skip
+    offsets = config.orientation_gain * (1 + 2 * INPUT_MARGIN) * np.tile(image, 2)  # (8,)
+    checked.within("w_ori", arrays["w_ori"], -offsets, offsets, "the offsets of such pixels")
+    spans = np.concatenate([image, config.orientation_gain * np.tile(image, 2)])  # (12,)
+    checked.check_linear_map("A", arrays["A"], upper - lower, spans)
+    cov = arrays["df_cov"]
+    largest = max(1.0, 2 * config.orientation_gain) * (1 + 2 * INPUT_MARGIN) * image.max()
+    if not (np.array_equal(cov, cov.T) and np.all(np.diag(cov) >= 0)):
+        raise ValueError("array 'df_cov' (12, 12) is not symmetric with a diagonal >= 0")
+    checked.within("df_cov", cov, -max(1.0, largest**2), max(1.0, largest**2), "its bound")

@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from learners.som.options import (
+    OPTION_LIMIT,
     check_common,
     entries,
     from_entries,
@@ -47,6 +48,12 @@ DEFAULT_MIN_DV = 1e-3
 #: the joints show in the features, which the Widrow-Hoff rule needs to learn every direction
 #: at a similar speed.
 DEFAULT_ORIENTATION_GAIN = 4.0
+#: ... at most this: beyond, the position features no longer count in the winner search.
+MAX_ORIENTATION_GAIN = 1e3
+#: px: the largest image side a camera of the map may have.
+MAX_IMAGE_SIDE = 100_000
+#: Trials a schedule may run over: 2^53, every count up to it exact as a float.
+MAX_T_MAX = 2**53
 #: rad: the fine moves' trust radius at the coarse move (``trust_radius``), chosen among 0.1,
 #: 0.2 and 0.4 on validation objects of both orientation ranges (envs/studies/pose_tail.py).
 DEFAULT_TRUST_RADIUS = 0.2
@@ -147,18 +154,17 @@ class HierarchicalConfig:
         size = _shape("image_size", self.image_size)
         if len(size) != 2:
             raise ValueError(f"HierarchicalConfig.image_size must be (width, height), got {size}")
+        if max(size) > MAX_IMAGE_SIDE:
+            raise ValueError(
+                f"HierarchicalConfig.image_size {size} is beyond {MAX_IMAGE_SIDE} px a side"
+            )
         put("image_size", size)
-        for name, kind, least, strict in (
-            ("t_max", int, 1, False), ("min_dv", float, 0, False),
-            ("orientation_gain", float, 0, True), ("trust_radius", float, 0, False),
+        for name, kind, least, most, strict in (
+            ("t_max", int, 1, MAX_T_MAX, False), ("min_dv", float, 0, OPTION_LIMIT, False),
+            ("orientation_gain", float, 0, MAX_ORIENTATION_GAIN, True),
+            ("trust_radius", float, 0, OPTION_LIMIT, False),
         ):  # fmt: skip
-            value = number(_OWNER, name, getattr(self, name), kind)
-            if value < least or (strict and value == least):
-                raise ValueError(
-                    f"HierarchicalConfig.{name} must be {'>' if strict else '>='} {least}, "
-                    f"got {value}"
-                )
-            put(name, value)
+            put(name, number(_OWNER, name, getattr(self, name), kind, least, most, strict))
 
     @property
     def n_positions(self) -> int:

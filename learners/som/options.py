@@ -31,18 +31,16 @@ from collections.abc import Callable
 from dataclasses import MISSING, Field, asdict, fields
 from typing import Any, TypeVar
 
-import numpy as np
-
 from learners.guards import option_number
 from learners.som.schedules import Continual, Schedule
 
 #: The entry that holds every schedule of a configuration, as {name: [initial, final]}.
 SCHEDULES_ENTRY = "schedules"
-#: The checkpoint entries of a learned map beside its configuration: the trials learned, the
-#: trials skipped by reason, and the generator's state.
+#: The reasons a map counts skipped trials by (its checkpoint's ``skipped`` entry).
 SKIP_REASONS = ("not_visible", "small_dv")
-#: numpy bit generators a saved map may name (never an arbitrary numpy.random attribute).
-BIT_GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
+#: No number of a map's options lies beyond this (a schedule's ends, a distance, a noise level):
+#: σ of 10^9 lattice units or 10^9 px is damage or a typing error, not a setting.
+OPTION_LIMIT = 1e9
 
 T = TypeVar("T")
 
@@ -136,9 +134,18 @@ def field_types(config_cls: type) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------------ checks
-def number(owner: str, name: str, value: Any, kind: type) -> Any:
-    """``value`` as ``kind`` (int or float), else ValueError naming ``owner.name``."""
-    return option_number(owner, name, value, kind)
+def number(
+    owner: str, name: str, value: Any, kind: type, least: float | None = None,
+    most: float | None = None, strict: bool = False,
+) -> Any:  # fmt: skip
+    """``value`` as ``kind`` (int or float) in [least, most] (``strict``: > least), else
+    ValueError naming ``owner.name``."""
+    value = option_number(owner, name, value, kind)
+    if least is not None and (value < least or (strict and value == least)):
+        raise ValueError(f"{owner}.{name} must be {'>' if strict else '>='} {least}, got {value}")
+    if most is not None and value > most:
+        raise ValueError(f"{owner}.{name} must be <= {most:g}, got {value:.3g}")
+    return value
 
 
 def schedule(owner: str, name: str, value: Any) -> Schedule:
@@ -154,7 +161,7 @@ def schedule(owner: str, name: str, value: Any) -> Schedule:
             f"got {value!r}"
         ) from None
     for end in (result.initial, result.final):
-        number(owner, name, end, float)
+        number(owner, name, end, float, most=OPTION_LIMIT)
     return result
 
 
@@ -271,27 +278,6 @@ def from_entries(config_cls: Callable[..., T], stored: dict[str, Any]) -> T:
                     raise ValueError(f"config entry {SCHEDULES_ENTRY!r} lacks {f.name!r}")
                 options[f.name] = f.metadata["added_later"]
     return config_cls(**options)
-
-
-def check_counts(stored: dict[str, Any]) -> None:
-    """ValueError unless a saved map's ``t``, ``skipped`` and ``rng_state`` entries are a count
-    >= 0, the counts of ``SKIP_REASONS`` and the state of one of ``BIT_GENERATORS``."""
-    t, skipped, state = stored["t"], stored["skipped"], stored["rng_state"]
-    if not isinstance(t, int) or isinstance(t, bool) or t < 0:
-        raise ValueError(f"t = {t!r} is not a count")
-    if not isinstance(skipped, dict) or set(skipped) != set(SKIP_REASONS):
-        raise ValueError(f"skipped = {skipped!r} is not the counts of {', '.join(SKIP_REASONS)}")
-    if not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in skipped.values()):
-        raise ValueError(f"skipped = {skipped!r} holds counts that are not integers >= 0")
-    if not isinstance(state, dict) or state.get("bit_generator") not in BIT_GENERATORS:
-        raise ValueError(f"unknown bit generator in {state!r}")
-
-
-def restored_generator(state: dict[str, Any]) -> Any:
-    """The numpy bit generator whose state :func:`check_counts` accepted."""
-    bit_generator = getattr(np.random, state["bit_generator"])()
-    bit_generator.state = state
-    return bit_generator
 
 
 def positive_shape(owner: str, name: str, value: Any) -> tuple[int, ...]:

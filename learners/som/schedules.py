@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+from learners.guards import option_number
+
 
 @dataclass(frozen=True)
 class Schedule:
@@ -106,13 +108,19 @@ class Continual:
     readapt: int = 3000
 
     def __post_init__(self) -> None:
+        for name in ("fast", "slow", "trigger", "rewind"):
+            option_number("Continual", name, getattr(self, name), float)
+        option_number("Continual", "readapt", self.readapt, int)
         if not (0 < self.slow < self.fast <= 1 and self.trigger > 1 and 0 <= self.rewind < 1):
             raise ValueError(
                 "Continual needs 0 < slow < fast <= 1, trigger > 1 and 0 <= rewind < 1; got "
                 f"{asdict(self)}"
             )
-        if int(self.readapt) < 1:
-            raise ValueError(f"Continual readapt must be >= 1 trials, got {self.readapt}")
+        if self.readapt < 1 or self.trigger > 1e9 or self.readapt > 2**53:
+            raise ValueError(
+                f"Continual needs readapt in [1, 2**53] trials and trigger <= 1e9, got "
+                f"{self.readapt}, {self.trigger}"
+            )
 
 
 class ErrorMonitor:
