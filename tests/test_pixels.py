@@ -264,3 +264,29 @@ def test_record_video_writes_at_the_envs_frame_rate(tmp_path):
     env.close()
     (video,) = (tmp_path / "videos").glob("*.mp4")
     assert imageio.immeta(video)["fps"] == env.metadata["render_fps"]
+
+
+@pytest.mark.parametrize("env_id", [*ENV_IDS, "PumaGrasp-v0"])
+def test_the_view_labels_lie_off_the_arm(env_id):
+    """Where the frame's labels are drawn, MuJoCo's own segmentation of each camera view shows
+    no robot or marker geom, at the start and after random moves."""
+    env = gym.make(env_id, render_mode="rgb_array", **FAST)
+    base = env.unwrapped
+    height, width = base.image_height, base.image_width
+    drawn = np.isin(base.model.geom_group, (2, 4))  # robot and marker groups
+    renderer = mujoco.Renderer(base.model, height, width)
+    renderer.enable_segmentation_rendering()
+    rng, space = np.random.default_rng(9), env.action_space
+    try:
+        env.reset(seed=9)
+        for move in range(40):
+            for camera in ("cam_left", "cam_right"):
+                left, top, right, bottom = base._view.label_box(camera)
+                renderer.update_scene(base.data, camera=camera)
+                ids, kinds = np.moveaxis(renderer.render()[top:bottom, left:right], -1, 0)
+                geoms = ids[kinds == int(mujoco.mjtObj.mjOBJ_GEOM)]
+                assert not drawn[geoms].any(), f"move {move}: the arm under {camera}'s label"
+            env.step(rng.uniform(space.low, space.high))
+    finally:
+        renderer.close()
+        env.close()
