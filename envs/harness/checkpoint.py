@@ -51,6 +51,12 @@ def checkpoint_path(folder: str | os.PathLike) -> Path:
     return old if old.is_file() and not new.is_file() else new
 
 
+#: What a unit's identity records (:func:`identity`); units of the first releases hold the
+#: image size as ``image_size`` = [height, width].
+IDENTITY_KEYS = ("robot", "joints", "sensing", "width", "height", "lattice")
+SIZE = ("width", "height")
+
+
 def identity(env: Any, lattice: tuple[int, ...]) -> dict[str, Any]:
     """Robot, joints, sensing, image width and height (px) and lattice of a map on ``env``: what
     a checkpoint is for (a map is only meaningful on the env it was trained on)."""
@@ -192,8 +198,10 @@ def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
 
 def _unit(path: str | os.PathLike, arrays: dict[str, Any]) -> tuple[dict[str, Any], np.ndarray]:
     """:func:`read_unit` of the arrays already loaded from ``path``."""
-    if _RUN not in arrays or _SIM not in arrays:
+    if _RUN not in arrays:
         raise CheckpointError(f"{path}: a map without a training run's state; cannot resume it")
+    if _SIM not in arrays:
+        raise CheckpointError(f"{path}: the run's simulation state ({_SIM}) is missing; damaged")
     try:
         run = json.loads(str(arrays[_RUN]))
         if not isinstance(run, dict):
@@ -224,6 +232,15 @@ def unit_identity(run: dict[str, Any], where: str = "the checkpoint") -> dict[st
             f"{where}: the run's identity is {shown(recorded)}, not a dict; the file is damaged"
         )
     recorded = dict(recorded)
+    missing = [
+        k
+        for k in IDENTITY_KEYS
+        if k not in recorded and not (k in SIZE and "image_size" in recorded)
+    ]
+    if missing:
+        raise CheckpointError(
+            f"{where}: the run's identity lacks {', '.join(missing)}; the file is damaged"
+        )
     if "image_size" in recorded:  # written before sizes were width and height: [height, width]
         size = recorded.pop("image_size")
         if not isinstance(size, list) or len(size) != 2:
@@ -241,8 +258,8 @@ def check_identity(
     """CheckpointError naming both sides if ``found`` and ``wanted`` differ in any of ``keys``."""
     bad = [k for k in keys if found.get(k) != wanted.get(k)]
     if bad:
-        ours = ", ".join(f"{k}={found.get(k)!r}" for k in bad)
-        theirs = ", ".join(f"{k}={wanted.get(k)!r}" for k in bad)
+        ours = ", ".join(f"{k}={shown(found.get(k))}" for k in bad)
+        theirs = ", ".join(f"{k}={shown(wanted.get(k))}" for k in bad)
         raise CheckpointError(
             f"{path} was trained for {ours}, but this env has {theirs}; use a checkpoint of "
             "this setting or choose the env it was trained on"

@@ -134,14 +134,16 @@ def truncate_metrics(path: Path, rows: int) -> None:
         write_atomic(path, lambda f: f.write(text))
 
 
-def check_metrics(path: Path, rows: int, trial: int, pending_eval: bool) -> None:
+def check_metrics(path: Path, rows: int, trial: int, pending_eval: bool, eval_every: int) -> None:
     """Check, without writing, that the first ``rows`` rows of a metrics log are the ones a
     checkpoint at ``trial`` (its evaluation there still to do if ``pending_eval``) counts: rows
-    of increasing trials up to it, and the next row, if any, logged after it.
+    of increasing trials up to it, among them every ``eval_every``-th trial from 0 (the run's
+    held-out schedule; other rows are the ends of the run's earlier extents), and the next
+    row, if any, logged after it.
 
     Raises:
         CheckpointError: fewer than ``rows`` readable rows, or rows that disagree with the
-            count (the checkpoint or the log was damaged).
+            count or the schedule (the checkpoint or the log was damaged).
     """
     lines = path.read_bytes().split(b"\n") if path.is_file() else []
     kept = _readable_rows(lines[: rows + 1])
@@ -159,6 +161,13 @@ def check_metrics(path: Path, rows: int, trial: int, pending_eval: bool) -> None
         raise CheckpointError(
             f"{path}: the {rows} rows the checkpoint counts are not of increasing trials up to "
             f"{last}; the checkpoint's metrics_rows or the log is damaged"
+        )
+    missed = sorted(set(range(0, last + 1, eval_every)) - set(counted))
+    if missed:
+        raise CheckpointError(
+            f"{path}: no row of trial {missed[0]} among the {rows} the checkpoint counts, where "
+            f"the run evaluates every {eval_every} trials; its metrics_rows or eval_every, or "
+            "the log, is damaged"
         )
     if len(trials) > rows and isinstance(trials[rows], int) and trials[rows] <= last:
         raise CheckpointError(

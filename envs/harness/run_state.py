@@ -27,7 +27,7 @@ RNG_STATE_KEYS = ("inc", "state")
 #: PCG64's state and increment are 128-bit, its buffered output 32-bit.
 RNG_STATE_BITS, RNG_UINTEGER_BITS = 128, 32
 #: Characters of a damaged value shown in a message.
-SHOWN_CHARS = 40
+SHOWN_CHARS = 30
 
 
 def shown(value: Any) -> str:
@@ -151,15 +151,19 @@ class RunState:
     def check_fits(self, where: str, trials: int, eval_every: int, learned: int) -> None:
         """The state against the run: ``trial`` within its ``trials`` and not below the map's
         ``learned`` trials (one learning step per trial at most), ``metrics_rows`` at least the
-        evaluations of its schedule (trial 0 and every ``eval_every`` trials) done by ``trial``.
+        evaluations of its schedule (trial 0 and every ``eval_every`` trials) done by ``trial``
+        and at most one per trial.
         CheckpointError naming ``where`` and the entries that disagree."""
         if self.trial > trials:
-            self._refuse(where, f"trial is {self.trial}, beyond the run's {trials} trials")
+            self._refuse(where, f"trial is {shown(self.trial)}, beyond the run's {trials} trials")
         if learned > self.trial:
             why = f"below the map's {learned} learned trials (t)"
             self._refuse(where, f"trial is {self.trial}, {why}")
         scheduled = -(-self.trial // eval_every)  # trial 0, eval_every, ... below trial
         scheduled += self.trial % eval_every == 0 and not self.pending_eval
+        if self.metrics_rows > self.trial + 1:  # rows of distinct trials 0 .. trial
+            self._refuse(where, f"metrics_rows is {shown(self.metrics_rows)}, beyond one row per "
+                         f"trial 0 .. {self.trial}")  # fmt: skip
         if self.metrics_rows < scheduled:
             self._refuse(
                 where,

@@ -442,7 +442,9 @@ class Trainer:
             check_identity(path, lattice, {"lattice": list(config.lattice)}, ("lattice",))
             state.check_fits(str(path), stored.trials, stored.eval_every, trainer.som.t)
             metrics = folder.path / METRICS_FILE
-            check_metrics(metrics, state.metrics_rows, state.trial, state.pending_eval)
+            check_metrics(
+                metrics, state.metrics_rows, state.trial, state.pending_eval, stored.eval_every
+            )
             trainer._take(state, path)
             try:
                 set_sim_state(trainer.env, sim_state)
