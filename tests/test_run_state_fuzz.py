@@ -161,6 +161,7 @@ class Tally:
         self.refused = {"train": 0, "evaluate": 0}
         self.identical = {"train": 0, "evaluate": 0}
         self.failures: list[str] = []
+        self.accepted: list[str] = []  # edits train.py --resume took
 
     def run(self, name: str, script: str, *args: str) -> subprocess.CompletedProcess | None:
         try:
@@ -232,6 +233,7 @@ def test_every_run_state_edit_is_refused_in_one_line_or_loads_identically(tiny_r
         if result is not None and result.returncode == 0:
             if _ending(folder) == ending:
                 tally.identical["train"] += 1
+                tally.accepted.append(name)
             else:
                 tally.failures.append(f"{name}: train.py --resume loaded it and ended elsewhere")
         elif result is not None:
@@ -241,7 +243,7 @@ def test_every_run_state_edit_is_refused_in_one_line_or_loads_identically(tiny_r
         f"{tally.edits} run-state edits; train.py --resume: {tally.refused['train']} refused, "
         f"{tally.identical['train']} resumed identically; evaluate.py --run: "
         f"{tally.refused['evaluate']} refused, {tally.identical['evaluate']} identical; "
-        f"{tally.tracebacks} tracebacks, {tally.hangs} hangs"
+        f"{tally.tracebacks} tracebacks, {tally.hangs} hangs; resumed: {', '.join(tally.accepted)}"
     )
     assert not tally.failures, "\n".join(tally.failures)
     assert tally.tracebacks == tally.hangs == 0

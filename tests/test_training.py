@@ -305,6 +305,18 @@ def _qvel_huge(state, model):
     return state
 
 
+def _time_huge(state, model):
+    state[0] = 1e300  # s: a servo move's elapsed time would stay 0 (time + dt == time)
+    return state
+
+
+def _mocap_far(state, model):
+    from envs.harness.checkpoint import sim_state_parts
+
+    state[sim_state_parts(model)["mocap_pos"].start] = 1e6  # m
+    return state
+
+
 def _ctrl_beyond(state, model):
     from envs.harness.checkpoint import sim_state_parts
 
@@ -315,7 +327,8 @@ def _ctrl_beyond(state, model):
 @pytest.mark.parametrize(
     ("change", "words"),
     [(_qpos_far, ("qpos", "joint1")), (_qvel_huge, ("qvel", "rad/s")),
-     (_ctrl_beyond, ("ctrl",)), (lambda s, m: s[:-1], ("simulation state",)),
+     (_ctrl_beyond, ("ctrl",)), (_time_huge, ("time",)), (_mocap_far, ("mocap_pos",)),
+     (lambda s, m: s[:-1], ("simulation state",)),
      (lambda s, m: s.astype(np.float32), ("float32",))],
 )  # fmt: skip
 def test_a_simulation_state_this_model_cannot_have_is_refused(tiny_run, tmp_path, change, words):

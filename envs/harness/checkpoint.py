@@ -87,6 +87,12 @@ JOINT_RANGE_TOLERANCE = 0.05
 #: rad/s: no joint of these arms moves this fast (the fastest measured in a servo move: 59 rad/s,
 #: PUMA joint 6 mid-move; after a trial, where states are saved, below 1e-3 rad/s).
 MAX_JOINT_SPEED = 1000.0
+#: s: simulated time of a saved state is below this (episodes start at 0; a run of a million
+#: trials of four 2 s moves each, its arm never reset, stays below 1e7 s) ...
+MAX_SIM_TIME = 1e9
+#: ... and a mocap body (target, object) lies within this distance of the origin (m; these
+#: robots reach about 1 m).
+MAX_MOCAP_DISTANCE = 100.0
 
 
 def sim_state_parts(model: Any) -> dict[str, slice]:
@@ -106,8 +112,9 @@ def sim_state_parts(model: Any) -> dict[str, slice]:
 
 def check_sim_state(model: Any, state: np.ndarray) -> None:
     """Refuse a state that cannot be this model's: another size or dtype, numbers that are not
-    finite, negative time, a joint beyond its range (more than JOINT_RANGE_TOLERANCE), a joint
-    faster than MAX_JOINT_SPEED or a control outside its actuator's range.
+    finite, a time outside 0 .. MAX_SIM_TIME, a mocap body beyond MAX_MOCAP_DISTANCE, a joint
+    beyond its range (more than JOINT_RANGE_TOLERANCE), a joint faster than MAX_JOINT_SPEED or
+    a control outside its actuator's range.
 
     Raises:
         CheckpointError: naming the part and the joint or actuator.
@@ -128,8 +135,18 @@ def check_sim_state(model: Any, state: np.ndarray) -> None:
                 f"simulation state: {name}[{bad}] is {values[bad]}, not finite; the checkpoint "
                 "is damaged"
             )
-    if parts["time"][0] < 0:
-        raise CheckpointError(f"simulation state: time is {parts['time'][0]} s, below 0; damaged")
+    time = parts["time"][0]
+    if not 0 <= time <= MAX_SIM_TIME:
+        raise CheckpointError(
+            f"simulation state: time is {time:.6g} s, not in 0 .. {MAX_SIM_TIME:g} s; the "
+            "checkpoint is damaged"
+        )
+    far = np.abs(parts["mocap_pos"])
+    if far.size and far.max() > MAX_MOCAP_DISTANCE:
+        raise CheckpointError(
+            f"simulation state: mocap_pos[{int(far.argmax())}] is {far.max():.6g} m from the "
+            f"origin, beyond {MAX_MOCAP_DISTANCE:g} m; the checkpoint is damaged"
+        )
     for j in np.flatnonzero(model.jnt_limited):
         low, high = model.jnt_range[j]
         q = parts["qpos"][model.jnt_qposadr[j]]
