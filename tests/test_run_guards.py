@@ -94,3 +94,24 @@ def test_a_pose_only_option_on_a_reach_map_is_a_one_line_error(puma_run, tmp_pat
     assert (
         "--no-backtrack and --trust-radius change the hierarchical map of PumaGrasp-v0 only" in line
     )
+
+
+def test_resume_keeps_the_runs_checkpoint_every_unless_it_is_given_again(tmp_path):
+    """train.py --resume used to fall back to --checkpoint-every's default (1000)."""
+    from envs.harness.checkpoint import read_unit
+
+    def stored():
+        return read_unit(tmp_path / "checkpoint.npz")[0]["checkpoint_every"]
+
+    short = ["--lattice", "3x2x2", "--eval-every", "4", "--eval-trials", "3"]
+    first = run_script("train", "--trials", "4", *short, "--checkpoint-every", "3",
+                       "--out", str(tmp_path))  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    assert stored() == 3
+    resumed = run_script("train", "--out", str(tmp_path), "--resume", "--trials", "8")
+    assert resumed.returncode == 0, resumed.stderr
+    assert stored() == 3
+    again = run_script("train", "--out", str(tmp_path), "--resume", "--trials", "12",
+                       "--checkpoint-every", "5")  # fmt: skip
+    assert again.returncode == 0, again.stderr
+    assert stored() == 5

@@ -17,7 +17,8 @@ after the coarse move and each fine move in mm, % of the robot's reach and pixel
 Ctrl-C or SIGTERM finishes the current trial, saves and exits (130 or 143); --resume then
 continues exactly as if the run had never stopped, also after a kill or a power cut. One
 process at a time may write to OUT; a fresh run refuses a folder that holds a run unless
---force. On --resume only --trials (to extend the run) and --checkpoint-every may change.
+--force. On --resume only --trials (to extend the run) and --checkpoint-every may change; the
+run keeps its own --checkpoint-every unless it is given again.
 """
 
 from __future__ import annotations
@@ -139,7 +140,11 @@ def main(argv: list[str] | None = None) -> Path:
                     f"on --resume only --trials and --checkpoint-every may change, but "
                     f"{'; '.join(conflicts)}; leave them out or train a new run"
                 )
-            trainer = Trainer.resume(args.out, args.trials if "trials" in given else None)
+            trainer = Trainer.resume(
+                args.out,
+                args.trials if "trials" in given else None,
+                args.checkpoint_every if "checkpoint_every" in given else None,  # else the run's
+            )
         else:
             config = checked(
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
@@ -150,10 +155,10 @@ def main(argv: list[str] | None = None) -> Path:
                 training_pairs=args.training_pairs if grasp_env else None,
                 **map_settings(args, given),
             )  # fmt: skip
-            trainer = Trainer(config, args.out, force=args.force)
+            trainer = Trainer(config, args.out, args.force, args.checkpoint_every)
         try:
             with writing(args.out):  # the metrics log's appends: no space is a user error
-                train(trainer, args.checkpoint_every, stop)
+                train(trainer, trainer.checkpoint_every, stop)
         finally:
             trainer.close()
     print(f"trained {trainer.trial} trials; map in {checkpoint_path(args.out)}")

@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from envs.grasp import GraspEnv
+from envs.harness.run_state import shown
 from learners.persistence import CheckpointError, load_npz, save_npz, stored_kind
 from learners.som import hierarchical
 from learners.som.controller import FORMAT_VERSION, KIND, VisuomotorSOM
@@ -50,6 +51,12 @@ def checkpoint_path(folder: str | os.PathLike) -> Path:
     return old if old.is_file() and not new.is_file() else new
 
 
+#: What a unit's identity records (:func:`identity`); units of the first releases hold the
+#: image size as ``image_size`` = [height, width].
+IDENTITY_KEYS = ("robot", "joints", "sensing", "width", "height", "lattice")
+SIZE = ("width", "height")
+
+
 def identity(env: Any, lattice: tuple[int, ...]) -> dict[str, Any]:
     """Robot, joints, sensing, image width and height (px) and lattice of a map on ``env``: what
     a checkpoint is for (a map is only meaningful on the env it was trained on)."""
@@ -72,15 +79,107 @@ def get_sim_state(env: Any) -> np.ndarray:
     return state
 
 
-def set_sim_state(env: Any, state: np.ndarray) -> None:
-    """Restore a state from :func:`get_sim_state` (and recompute positions from it)."""
-    base = env.unwrapped
-    size = mujoco.mj_stateSize(base.model, SIM_STATE)
-    if state.shape != (size,) or state.dtype != np.float64 or not np.isfinite(state).all():
+#: rad (m for a slide joint): a joint may lie this far outside its range in a saved state. The
+#: simulator lets a servo move overshoot a limit: at most 0.0155 rad measured in any physics step
+#: of 150 servo trials per robot (RIACS; PUMA 0.0061), 1.2e-5 rad after a trial, where states
+#: are saved.
+JOINT_RANGE_TOLERANCE = 0.05
+#: rad/s: no joint of these arms moves this fast (the fastest measured in a servo move: 59 rad/s,
+#: PUMA joint 6 mid-move; after a trial, where states are saved, below 1e-3 rad/s).
+MAX_JOINT_SPEED = 1000.0
+#: s: simulated time of a saved state is below this (episodes start at 0; a run of a million
+#: trials of four 2 s moves each, its arm never reset, stays below 1e7 s) ...
+MAX_SIM_TIME = 1e9
+#: ... and a mocap body (target, object) lies within this distance of the origin (m; these
+#: robots reach about 1 m).
+MAX_MOCAP_DISTANCE = 100.0
+
+
+def sim_state_parts(model: Any) -> dict[str, slice]:
+    """The parts of a state from :func:`get_sim_state` (``"qpos"``, ``"qvel"``, ``"ctrl"``, ...:
+    the ``mjSTATE_`` names, lower case) and where each lies in it (mj_getState writes them in
+    the order of their bits)."""
+    parts, at = {}, 0
+    for name, bit in mujoco.mjtState.__members__.items():
+        value = int(bit)
+        if value & (value - 1) or not value & int(SIM_STATE):  # a group or not stored
+            continue
+        size = mujoco.mj_stateSize(model, bit)
+        parts[name.removeprefix("mjSTATE_").lower()] = slice(at, at + size)
+        at += size
+    return parts
+
+
+def check_sim_state(model: Any, state: np.ndarray) -> None:
+    """Refuse a state that cannot be this model's: another size or dtype, numbers that are not
+    finite, a time outside 0 .. MAX_SIM_TIME, a mocap body beyond MAX_MOCAP_DISTANCE, a joint
+    beyond its range (more than JOINT_RANGE_TOLERANCE), a joint faster than MAX_JOINT_SPEED or
+    a control outside its actuator's range.
+
+    Raises:
+        CheckpointError: naming the part and the joint or actuator.
+    """
+    size = mujoco.mj_stateSize(model, SIM_STATE)
+    if not isinstance(state, np.ndarray) or state.shape != (size,) or state.dtype != np.float64:
+        found = f"{state.dtype} {state.shape}" if isinstance(state, np.ndarray) else "not an array"
         raise CheckpointError(
-            f"simulation state is {state.dtype} {state.shape}, this model needs {size} finite "
-            "float64 numbers; the checkpoint is damaged or from another model"
+            f"simulation state is {found}; this model's (nq {model.nq}, nv {model.nv}, na "
+            f"{model.na}, nu {model.nu}) has {size} float64 numbers; the checkpoint is damaged "
+            "or from another model"
         )
+    parts = {name: state[at] for name, at in sim_state_parts(model).items()}
+    for name, values in parts.items():
+        if not np.isfinite(values).all():
+            bad = int(np.flatnonzero(~np.isfinite(values))[0])
+            raise CheckpointError(
+                f"simulation state: {name}[{bad}] is {values[bad]}, not finite; the checkpoint "
+                "is damaged"
+            )
+    time = parts["time"][0]
+    if not 0 <= time <= MAX_SIM_TIME:
+        raise CheckpointError(
+            f"simulation state: time is {time:.6g} s, not in 0 .. {MAX_SIM_TIME:g} s; the "
+            "checkpoint is damaged"
+        )
+    far = np.abs(parts["mocap_pos"])
+    if far.size and far.max() > MAX_MOCAP_DISTANCE:
+        raise CheckpointError(
+            f"simulation state: mocap_pos[{int(far.argmax())}] is {far.max():.6g} m from the "
+            f"origin, beyond {MAX_MOCAP_DISTANCE:g} m; the checkpoint is damaged"
+        )
+    for j in np.flatnonzero(model.jnt_limited):
+        low, high = model.jnt_range[j]
+        q = parts["qpos"][model.jnt_qposadr[j]]
+        if not low - JOINT_RANGE_TOLERANCE <= q <= high + JOINT_RANGE_TOLERANCE:
+            raise CheckpointError(
+                f"simulation state: qpos of joint {model.joint(j).name!r} is {q:.6g}, outside "
+                f"its range {low:.6g} .. {high:.6g} (tolerance {JOINT_RANGE_TOLERANCE}); the "
+                "checkpoint is damaged or from another model"
+            )
+    speed = np.abs(parts["qvel"])
+    if speed.size and speed.max() > MAX_JOINT_SPEED:
+        dof = int(speed.argmax())
+        raise CheckpointError(
+            f"simulation state: qvel[{dof}] (joint {model.joint(model.dof_jntid[dof]).name!r}) "
+            f"is {parts['qvel'][dof]:.6g}, faster than {MAX_JOINT_SPEED:g} rad/s; the checkpoint "
+            "is damaged"
+        )
+    ctrl = parts["ctrl"]
+    for a in np.flatnonzero(model.actuator_ctrllimited):
+        low, high = model.actuator_ctrlrange[a]
+        if not low - JOINT_RANGE_TOLERANCE <= ctrl[a] <= high + JOINT_RANGE_TOLERANCE:
+            raise CheckpointError(
+                f"simulation state: ctrl of actuator {model.actuator(a).name!r} is "
+                f"{ctrl[a]:.6g}, outside its range {low:.6g} .. {high:.6g}; the checkpoint is "
+                "damaged"
+            )
+
+
+def set_sim_state(env: Any, state: np.ndarray) -> None:
+    """Restore a state from :func:`get_sim_state` (and recompute positions from it), checked
+    first (:func:`check_sim_state`: CheckpointError, the simulation unchanged)."""
+    base = env.unwrapped
+    check_sim_state(base.model, state)
     mujoco.mj_setState(base.model, base.data, state, SIM_STATE)
     mujoco.mj_forward(base.model, base.data)
 
@@ -116,10 +215,14 @@ def read_unit(path: str | os.PathLike) -> tuple[dict[str, Any], np.ndarray]:
 
 def _unit(path: str | os.PathLike, arrays: dict[str, Any]) -> tuple[dict[str, Any], np.ndarray]:
     """:func:`read_unit` of the arrays already loaded from ``path``."""
-    if _RUN not in arrays or _SIM not in arrays:
+    if _RUN not in arrays:
         raise CheckpointError(f"{path}: a map without a training run's state; cannot resume it")
+    if _SIM not in arrays:
+        raise CheckpointError(f"{path}: the run's simulation state ({_SIM}) is missing; damaged")
     try:
         run = json.loads(str(arrays[_RUN]))
+        if not isinstance(run, dict):
+            raise TypeError(f"it is {type(run).__name__}, not a dict")
         missing = {"config", "identity", "trial"} - set(run)
     except (ValueError, TypeError) as exc:
         raise CheckpointError(f"{path}: the run's state is damaged ({exc})") from exc
@@ -134,14 +237,35 @@ def read_identity(path: str | os.PathLike) -> dict[str, Any] | None:
     _, arrays = load_npz(path, kind, version)
     if _RUN not in arrays:
         return None
-    return unit_identity(_unit(path, arrays)[0])
+    return unit_identity(_unit(path, arrays)[0], str(path))
 
 
-def unit_identity(run: dict[str, Any]) -> dict[str, Any]:
-    """The identity recorded in a unit's ``run`` (from :func:`read_unit`)."""
-    recorded = dict(run["identity"])
+def unit_identity(run: dict[str, Any], where: str = "the checkpoint") -> dict[str, Any]:
+    """The identity recorded in a unit's ``run`` (from :func:`read_unit`); CheckpointError
+    naming ``where`` if it is not a dict."""
+    recorded = run.get("identity")
+    if not isinstance(recorded, dict):
+        raise CheckpointError(
+            f"{where}: the run's identity is {shown(recorded)}, not a dict; the file is damaged"
+        )
+    recorded = dict(recorded)
+    missing = [
+        k
+        for k in IDENTITY_KEYS
+        if k not in recorded and not (k in SIZE and "image_size" in recorded)
+    ]
+    if missing:
+        raise CheckpointError(
+            f"{where}: the run's identity lacks {', '.join(missing)}; the file is damaged"
+        )
     if "image_size" in recorded:  # written before sizes were width and height: [height, width]
-        recorded["height"], recorded["width"] = recorded.pop("image_size")
+        size = recorded.pop("image_size")
+        if not isinstance(size, list) or len(size) != 2:
+            raise CheckpointError(
+                f"{where}: the run's identity has image_size {shown(size)}, not [height, width]; "
+                "the file is damaged"
+            )
+        recorded["height"], recorded["width"] = size
     return recorded
 
 
@@ -151,8 +275,8 @@ def check_identity(
     """CheckpointError naming both sides if ``found`` and ``wanted`` differ in any of ``keys``."""
     bad = [k for k in keys if found.get(k) != wanted.get(k)]
     if bad:
-        ours = ", ".join(f"{k}={found.get(k)!r}" for k in bad)
-        theirs = ", ".join(f"{k}={wanted.get(k)!r}" for k in bad)
+        ours = ", ".join(f"{k}={shown(found.get(k))}" for k in bad)
+        theirs = ", ".join(f"{k}={shown(wanted.get(k))}" for k in bad)
         raise CheckpointError(
             f"{path} was trained for {ours}, but this env has {theirs}; use a checkpoint of "
             "this setting or choose the env it was trained on"

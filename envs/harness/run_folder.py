@@ -5,6 +5,7 @@ the rows its checkpoint knows, and output folders found unwritable before any wo
 from __future__ import annotations
 
 import fcntl
+import itertools
 import json
 import os
 import sys
@@ -131,6 +132,48 @@ def truncate_metrics(path: Path, rows: int) -> None:
     text = b"".join(line + b"\n" for line in kept)
     if not path.is_file() or path.read_bytes() != text:
         write_atomic(path, lambda f: f.write(text))
+
+
+def check_metrics(path: Path, rows: int, trial: int, pending_eval: bool, eval_every: int) -> None:
+    """Check, without writing, that the first ``rows`` rows of a metrics log are the ones a
+    checkpoint at ``trial`` (its evaluation there still to do if ``pending_eval``) counts: rows
+    of increasing trials up to it, among them every ``eval_every``-th trial from 0 (the run's
+    held-out schedule; other rows are the ends of the run's earlier extents), and the next
+    row, if any, logged after it.
+
+    Raises:
+        CheckpointError: fewer than ``rows`` readable rows, or rows that disagree with the
+            count or the schedule (the checkpoint or the log was damaged).
+    """
+    lines = path.read_bytes().split(b"\n") if path.is_file() else []
+    kept = _readable_rows(lines[: rows + 1])
+    if len(kept) < rows:
+        raise CheckpointError(
+            f"{path}: {len(kept)} readable rows, the checkpoint counts {rows}; the log was "
+            "damaged or replaced; restore it, or start over with --force"
+        )
+    trials = [row.get("trial") if isinstance(row, dict) else None for row in kept]
+    last = trial - 1 if pending_eval else trial  # the latest trial a counted row may have
+    counted = trials[:rows]
+    if not all(isinstance(t, int) and 0 <= t <= last for t in counted) or any(
+        a >= b for a, b in itertools.pairwise(counted)
+    ):
+        raise CheckpointError(
+            f"{path}: the {rows} rows the checkpoint counts are not of increasing trials up to "
+            f"{last}; the checkpoint's metrics_rows or the log is damaged"
+        )
+    missed = sorted(set(range(0, last + 1, eval_every)) - set(counted))
+    if missed:
+        raise CheckpointError(
+            f"{path}: no row of trial {missed[0]} among the {rows} the checkpoint counts, where "
+            f"the run evaluates every {eval_every} trials; its metrics_rows or eval_every, or "
+            "the log, is damaged"
+        )
+    if len(trials) > rows and isinstance(trials[rows], int) and trials[rows] <= last:
+        raise CheckpointError(
+            f"{path}: row {rows + 1} (trial {trials[rows]}) was logged before the checkpoint "
+            f"(trial {trial}), which counts only {rows} rows; its metrics_rows is damaged"
+        )
 
 
 def write_json(path: str | os.PathLike, data: Any) -> Path:

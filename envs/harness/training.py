@@ -31,7 +31,8 @@ from envs.harness.checkpoint import (
     write_unit,
 )
 from envs.harness.evaluation import Ticking, evaluate
-from envs.harness.run_folder import METRICS_FILE, RunFolder, truncate_metrics
+from envs.harness.run_folder import METRICS_FILE, RunFolder, check_metrics, truncate_metrics
+from envs.harness.run_state import CHECKPOINT_EVERY, RunState
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.streams import seed_env
 from envs.harness.trials import learn_from, run_trial
@@ -341,6 +342,15 @@ def initial_map(config: RunConfig, env: gym.Env, **options: Any) -> VisuomotorSO
     )
 
 
+def _interval(checkpoint_every: int) -> int:
+    """``checkpoint_every`` checked: trials between checkpoints, an integer >= 1."""
+    if isinstance(checkpoint_every, bool) or not isinstance(checkpoint_every, int):
+        raise ValueError(f"checkpoint_every is {checkpoint_every!r}; it takes an integer >= 1")
+    if checkpoint_every < 1:
+        raise ValueError(f"checkpoint_every is {checkpoint_every}; it takes an integer >= 1")
+    return checkpoint_every
+
+
 class Trainer:
     """Runs ``config.trials`` training trials, evaluating every ``eval_every`` trials.
 
@@ -355,12 +365,19 @@ class Trainer:
             ``force``.
     """
 
-    def __init__(self, config: RunConfig, out: Path, force: bool = False) -> None:
+    def __init__(
+        self,
+        config: RunConfig,
+        out: Path,
+        force: bool = False,
+        checkpoint_every: int = CHECKPOINT_EVERY,
+    ) -> None:
         folder = RunFolder(out)
         try:
             folder.claim_fresh((CHECKPOINT_FILE, OLD_CHECKPOINT_FILE, METRICS_FILE), force)
             self._build(config, folder)
             self.pending_eval = True  # the evaluation of the untrained map, trial 0
+            self.checkpoint_every = _interval(checkpoint_every)
             self.save()  # from here on every kill can be resumed
         except BaseException:
             folder.release()
@@ -374,50 +391,69 @@ class Trainer:
         )
         self.trial, self.metrics_rows, self.pending_eval = 0, 0, False
         self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}
+        self.checkpoint_every = CHECKPOINT_EVERY
 
     # -- checkpoints ---------------------------------------------------------------------------
 
     @staticmethod
     def stored_config(out: Path) -> RunConfig:
-        """The configuration of the run saved in ``out`` (CheckpointError if there is none)."""
+        """The configuration of the run saved in ``out``, its run state checked
+        (CheckpointError if there is none, or either is damaged)."""
         path = checkpoint_path(out)
         if not path.is_file():
             raise CheckpointError(f"{path}: no checkpoint to resume; train without --resume")
-        stored = read_unit(path)[0]["config"]
+        run = read_unit(path)[0]
+        RunState.from_entries(run, str(path))
         try:
-            return RunConfig.from_stored(stored)
+            return RunConfig.from_stored(run["config"])
         except (TypeError, ValueError) as exc:
             raise CheckpointError(f"{path}: the run's configuration is damaged ({exc})") from exc
 
     @classmethod
-    def resume(cls, out: Path, trials: int | None = None) -> Trainer:
-        """Continue the run saved in ``out``; ``trials`` extends (or shortens) its end."""
+    def resume(
+        cls, out: Path, trials: int | None = None, checkpoint_every: int | None = None
+    ) -> Trainer:
+        """Continue the run saved in ``out``; ``trials`` extends (or shortens) its end,
+        ``checkpoint_every`` replaces its interval between checkpoints (None: the run's own).
+
+        Every entry of the checkpoint is checked (the run state, the map, the simulation state,
+        against each other and against ``metrics.jsonl``) before ``metrics.jsonl`` is cut back
+        to the rows the checkpoint counts, the only write (CheckpointError, the folder as it
+        was)."""
         trainer = cls.__new__(cls)
         folder = RunFolder(out)
         try:
             path = checkpoint_path(folder.path)
-            config = cls.stored_config(out)
+            config = stored = cls.stored_config(out)
             run, sim_state = read_unit(path)
+            state = RunState.from_entries(run, str(path))
             if trials is not None:
-                if trials < run["trial"]:
+                if trials < state.trial:
                     raise CheckpointError(
-                        f"--trials {trials} is below the {run['trial']} trials this run has done"
+                        f"--trials {trials} is below the {state.trial} trials this run has done"
                     )
                 config = replace(config, trials=trials)
             trainer._build(config, folder)
             wanted = identity(trainer.env, config.lattice)
-            check_identity(path, unit_identity(run), wanted, tuple(wanted))
+            check_identity(path, unit_identity(run, str(path)), wanted, tuple(wanted))
             trainer.som = load_map(path)
             check_map_fits(path, trainer.som, trainer.env)
             lattice = {"lattice": list(trainer.som.lattice)}
             check_identity(path, lattice, {"lattice": list(config.lattice)}, ("lattice",))
-            trainer.trial, trainer.running = int(run["trial"]), dict(run["running"])
-            trainer.metrics_rows, trainer.pending_eval = run["metrics_rows"], run["pending_eval"]
-            base = trainer.env.unwrapped
-            base.np_random.bit_generator.state = run["env_rng"]
-            set_sim_state(trainer.env, sim_state)
-            truncate_metrics(folder.path / METRICS_FILE, trainer.metrics_rows)
-        except (KeyError, TypeError, ValueError) as exc:
+            state.check_fits(str(path), stored.trials, stored.eval_every, trainer.som.t)
+            metrics = folder.path / METRICS_FILE
+            check_metrics(
+                metrics, state.metrics_rows, state.trial, state.pending_eval, stored.eval_every
+            )
+            trainer._take(state, path)
+            try:
+                set_sim_state(trainer.env, sim_state)
+            except CheckpointError as exc:
+                raise CheckpointError(f"{path}: {exc}") from None
+            if checkpoint_every is not None:
+                trainer.checkpoint_every = _interval(checkpoint_every)
+            truncate_metrics(metrics, trainer.metrics_rows)
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:
             folder.release()
             if isinstance(exc, CheckpointError):
                 raise
@@ -427,16 +463,42 @@ class Trainer:
             raise
         return trainer
 
+    def _take(self, state: RunState, path: Path) -> None:
+        """Continue from ``state`` (checked), the env's generator set to its ``env_rng``."""
+        generator = self.env.unwrapped.np_random.bit_generator
+        kind = type(generator).__name__
+        if state.env_rng["bit_generator"] != kind:
+            raise CheckpointError(
+                f"{path}: the run state's env_rng is of {state.env_rng['bit_generator']!r}, this "
+                f"env's generator is {kind!r}; the file is damaged"
+            )
+        try:
+            generator.state = dict(state.env_rng)
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise CheckpointError(
+                f"{path}: the run state's env_rng is damaged ({type(exc).__name__}: {exc})"
+            ) from None
+        self.trial, self.running = state.trial, dict(state.running)
+        self.metrics_rows, self.pending_eval = state.metrics_rows, state.pending_eval
+        self.checkpoint_every = state.checkpoint_every
+
+    def run_state(self) -> RunState:
+        """Where the run stands (what :meth:`save` stores besides the configuration)."""
+        return RunState(
+            trial=self.trial,
+            running=dict(self.running),
+            metrics_rows=self.metrics_rows,
+            pending_eval=self.pending_eval,
+            env_rng=self.env.unwrapped.np_random.bit_generator.state,
+            checkpoint_every=self.checkpoint_every,
+        )
+
     def save(self) -> None:
         """Write the checkpoint unit (atomically: a kill leaves the previous one intact)."""
         run = {
             "config": self.config.to_stored(),
             "identity": identity(self.env, self.config.lattice),
-            "trial": self.trial,
-            "running": self.running,
-            "metrics_rows": self.metrics_rows,
-            "pending_eval": self.pending_eval,
-            "env_rng": self.env.unwrapped.np_random.bit_generator.state,
+            **self.run_state().to_entries(),
         }
         write_unit(checkpoint_path(self.out), self.som, run, get_sim_state(self.env))
 
@@ -444,17 +506,20 @@ class Trainer:
 
     def run(
         self,
-        checkpoint_every: int = 1000,
+        checkpoint_every: int | None = None,
         progress: Callable[[int, dict[str, float]], None] | None = None,
         stop: SignalStop | None = None,
     ) -> None:
-        """Train until ``config.trials``; checkpoint every ``checkpoint_every`` trials and at
-        the end.
+        """Train until ``config.trials``; checkpoint every ``checkpoint_every`` trials (None: the
+        run's own interval; a new one is stored with the run) and at the end.
 
         SIGINT and SIGTERM (noted by ``stop``, or by a :class:`SignalStop` installed here) let
         the current trial finish, abandon a held-out evaluation (redone on resume), save and
         raise :class:`StopRequested`. Any other exception leaves the last checkpoint as it is.
         """
+        if checkpoint_every is not None:
+            self.checkpoint_every = _interval(checkpoint_every)
+        checkpoint_every = self.checkpoint_every
         if stop is None:
             with SignalStop() as own:
                 return self.run(checkpoint_every, progress, own)
