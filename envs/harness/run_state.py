@@ -7,11 +7,12 @@ it, raised before a resumed run writes anything."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
 
 from learners.persistence import CheckpointError
+from learners.som import stored
 
 #: trials between checkpoints of a run whose checkpoint does not store its interval (written
 #: before runs kept it; the interval train.py has always defaulted to)
@@ -20,12 +21,6 @@ CHECKPOINT_EVERY = 1000
 RUNNING_KEYS = ("coarse_mm", "fine_mm")
 #: mm: no error of an arm of these robots' reach (about 1 m) comes near this (100 m).
 MAX_ERROR_MM = 1e5
-#: The env generator's state as numpy's PCG64 gives it (``bit_generator.state``).
-RNG_KEYS = ("bit_generator", "has_uint32", "state", "uinteger")
-RNG_KIND = "PCG64"
-RNG_STATE_KEYS = ("inc", "state")
-#: PCG64's state and increment are 128-bit, its buffered output 32-bit.
-RNG_STATE_BITS, RNG_UINTEGER_BITS = 128, 32
 #: Characters of a damaged value shown in a message.
 SHOWN_CHARS = 30
 
@@ -36,54 +31,37 @@ def shown(value: Any) -> str:
     return text if len(text) <= SHOWN_CHARS else text[: SHOWN_CHARS - 3] + "..."
 
 
-def _is_int(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
+def _count(least: int) -> Callable[[str, Any], None]:
+    """The check of a count >= ``least`` (:func:`learners.som.stored.count`)."""
+
+    def check(name: str, value: Any) -> None:
+        stored.count(name, value, least)
+
+    return check
 
 
-def _count(name: str, value: Any, least: int) -> str | None:
-    """Why ``value`` is not an integer >= ``least`` (None if it is)."""
-    if not _is_int(value) or value < least:
-        return f"{name} is {shown(value)}, not an integer >= {least}"
-    return None
+def _flag(name: str, value: Any) -> None:
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} is {shown(value)}, not true or false")
 
 
-def _flag(name: str, value: Any) -> str | None:
-    return None if isinstance(value, bool) else f"{name} is {shown(value)}, not true or false"
-
-
-def _running(name: str, value: Any) -> str | None:
+def _running(name: str, value: Any) -> None:
     if not isinstance(value, Mapping) or sorted(value) != sorted(RUNNING_KEYS):
-        return f"{name} is {shown(value)}, not {{{', '.join(RUNNING_KEYS)}}}"
+        raise ValueError(f"{name} is {shown(value)}, not {{{', '.join(RUNNING_KEYS)}}}")
     for key in RUNNING_KEYS:
         x = value[key]
         if not isinstance(x, float) or not (math.isnan(x) or 0.0 <= x <= MAX_ERROR_MM):
-            return f"{name}[{key!r}] is {shown(x)}, not NaN or a float in 0 .. {MAX_ERROR_MM:g} mm"
-    return None
+            why = f"not NaN or a float in 0 .. {MAX_ERROR_MM:g} mm"
+            raise ValueError(f"{name}[{key!r}] is {shown(x)}, {why}")
 
 
-def _rng(name: str, value: Any) -> str | None:
-    if not isinstance(value, Mapping) or sorted(value) != sorted(RNG_KEYS):
-        return f"{name} is {shown(value)}, not a generator state with {', '.join(RNG_KEYS)}"
-    if value["bit_generator"] != RNG_KIND:
-        return f"{name}['bit_generator'] is {shown(value['bit_generator'])}, not {RNG_KIND!r}"
-    state = value["state"]
-    if not isinstance(state, Mapping) or sorted(state) != sorted(RNG_STATE_KEYS):
-        return f"{name}['state'] is {shown(state)}, not {{{', '.join(RNG_STATE_KEYS)}}}"
-    for key in RNG_STATE_KEYS:
-        if not _is_int(state[key]) or not 0 <= state[key] < 2**RNG_STATE_BITS:
-            why = f"not a {RNG_STATE_BITS}-bit integer"
-            return f"{name}['state'][{key!r}] is {shown(state[key])}, {why}"
-    if state["inc"] % 2 == 0:  # PCG64 keeps its increment odd
-        return f"{name}['state']['inc'] is even; PCG64's increment is odd"
-    if value["has_uint32"] not in (0, 1) or not _is_int(value["has_uint32"]):
-        return f"{name}['has_uint32'] is {shown(value['has_uint32'])}, not 0 or 1"
-    if not _is_int(value["uinteger"]) or not 0 <= value["uinteger"] < 2**RNG_UINTEGER_BITS:
-        return f"{name}['uinteger'] is {shown(value['uinteger'])}, not a 32-bit integer"
-    return None
+def _rng(name: str, value: Any) -> None:
+    """The state of the env's generator (:func:`learners.som.stored.generator`, the map's)."""
+    stored.generator(value, name)
 
 
 def _check(test: Any, default: Any = None) -> Any:
-    """A field whose stored entry must pass ``test(name, value)`` (None, or why it does not);
+    """A field whose stored entry must pass ``test(name, value)`` (ValueError saying why not);
     a field with a ``default`` may be missing from checkpoints written before it existed."""
     metadata = {"check": test}
     if default is None:
@@ -108,19 +86,20 @@ class RunState:
         checkpoint_every: trials between checkpoints (``train.py --checkpoint-every``).
     """
 
-    trial: int = _check(lambda n, v: _count(n, v, 0))
+    trial: int = _check(_count(0))
     running: Mapping[str, float] = _check(_running)
-    metrics_rows: int = _check(lambda n, v: _count(n, v, 0))
+    metrics_rows: int = _check(_count(0))
     pending_eval: bool = _check(_flag)
     env_rng: Mapping[str, Any] = _check(_rng)
-    checkpoint_every: int = _check(lambda n, v: _count(n, v, 1), CHECKPOINT_EVERY)
+    checkpoint_every: int = _check(_count(1), CHECKPOINT_EVERY)
 
     def __post_init__(self) -> None:
         """Each field checked alone; CheckpointError naming the first that fails."""
         for f in fields(self):
-            why = f.metadata["check"](f.name, getattr(self, f.name))
-            if why is not None:
-                raise CheckpointError(f"the run state's {why}")
+            try:
+                f.metadata["check"](f.name, getattr(self, f.name))
+            except ValueError as exc:
+                raise CheckpointError(f"the run state's {exc}") from None
         if self.trial == 0 and not all(math.isnan(self.running[k]) for k in RUNNING_KEYS):
             raise CheckpointError(
                 f"the run state's running is {shown(dict(self.running))} at trial 0, where no "

@@ -47,36 +47,36 @@ def counts(stored: dict[str, Any]) -> tuple[int, dict[str, int]]:
     return t, {reason: count(f"skipped[{reason!r}]", skipped[reason]) for reason in SKIP_REASONS}
 
 
-def generator(state: Any) -> np.random.Generator:
-    """A Generator in the ``rng_state`` entry's state: the exact form numpy gives a bit generator
+def generator(state: Any, name: str = "rng_state") -> np.random.Generator:
+    """A Generator in the state of the entry ``name``: the exact form numpy gives a bit generator
     of ``BIT_GENERATORS`` (its keys, integers in their ranges), else ValueError."""
     if not isinstance(state, dict) or sorted(state) != [
         "bit_generator", "has_uint32", "state", "uinteger",
     ]:  # fmt: skip
-        raise ValueError("rng_state is not a generator's state (bit_generator, state, ...)")
-    name, inner = state["bit_generator"], state["state"]
-    if name not in BIT_GENERATORS:
+        raise ValueError(f"{name} is not a generator's state (bit_generator, state, ...)")
+    kind, inner = state["bit_generator"], state["state"]
+    if kind not in BIT_GENERATORS:
         raise ValueError(
-            f"rng_state names bit generator {str(name)!r:.40}; valid: {', '.join(BIT_GENERATORS)}"
+            f"{name} names bit generator {str(kind)!r:.40}; valid: {', '.join(BIT_GENERATORS)}"
         )
     if not isinstance(inner, dict) or sorted(inner) != ["inc", "state"]:
-        raise ValueError(f"rng_state of {name} lacks its state and increment")
+        raise ValueError(f"{name} of {kind} lacks its state and increment")
     for key, value, bits in (
         ("state", inner["state"], _PCG_BITS), ("inc", inner["inc"], _PCG_BITS),
         ("uinteger", state["uinteger"], _UINT_BITS), ("has_uint32", state["has_uint32"], 1),
     ):  # fmt: skip
         if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < 2**bits:
             allowed = "0 or 1" if bits == 1 else f"an integer in [0, 2**{bits})"
-            raise ValueError(f"rng_state's {key} is not {allowed}")
+            raise ValueError(f"{name}'s {key} is not {allowed}")
     if inner["inc"] % 2 == 0:  # seeding makes it odd, as PCG needs
-        raise ValueError("rng_state's increment is even, which no seeded PCG generator has")
-    bit_generator = getattr(np.random, name)()
+        raise ValueError(f"{name}'s increment is even, which no seeded PCG generator has")
+    bit_generator = getattr(np.random, kind)()
     try:
         bit_generator.state = state
     except Exception as exc:  # whatever numpy refuses is damage
-        raise ValueError(f"rng_state refused by numpy ({type(exc).__name__})") from None
+        raise ValueError(f"{name} refused by numpy ({type(exc).__name__})") from None
     if bit_generator.state != state:
-        raise ValueError("rng_state does not read back as stored")
+        raise ValueError(f"{name} does not read back as stored")
     return np.random.Generator(bit_generator)
 
 
