@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     )
     options.CONTROL.add(p, default=RunConfig.control, note=options.run_setting_note("control"))
     p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
-    p.add_argument("--seeds", nargs="+", type=cli.nonnegative_int, default=[0, 1, 2])
+    p.add_argument("--seeds", nargs="+", type=cli.seed, default=[0, 1, 2])
     cli.add_count(p, "--budget", 10_000, "env steps per method and seed")
     cli.add_count(p, "--checkpoints", 6, "evaluations, log-spaced")
     options.TARGETS.add(p, help="held-out targets per evaluation")

@@ -14,13 +14,13 @@ Writes ``accuracy.json`` under ``--out``.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 
 from envs.cli import common as cli
 from envs.cli import options
+from envs.harness.run_folder import write_json
 from models.analyses import nemecek_accuracy as acc
 from models.arms import arm_kinematics
 
@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> None:
         "sensitivity_dphi_per_unit": dphi.tolist(),
         "checks": checks,
     }
-    (out / "accuracy.json").write_text(json.dumps(result, indent=2))
+    write_json(out / "accuracy.json", result)
     print(f"\nwrote {out / 'accuracy.json'}")
 
 
