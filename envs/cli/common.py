@@ -156,8 +156,24 @@ def _text_type(parse: Callable[[str], T], name: str) -> Callable[[str], T]:
 
 #: ``--image-size 640x480``: (width, height) px (:func:`envs.sizes.parse_size`).
 image_size = _text_type(sizes.parse_size, "WIDTHxHEIGHT")
-#: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`).
-lattice = _text_type(sizes.parse_lattice, "lattice")
+
+
+def _lattice(text: str) -> tuple[int, ...]:
+    """:func:`envs.sizes.parse_lattice`, and no more neurons than fit in memory."""
+    from learners.som.config import MAX_NEURONS
+
+    shape = sizes.parse_lattice(text)
+    if math.prod(shape) > MAX_NEURONS:
+        raise ValueError(
+            f"{_shown(text)} has {math.prod(shape):,} neurons; at most {MAX_NEURONS:,} fit in "
+            "memory (40x40x40 has 64,000)"
+        )
+    return shape
+
+
+#: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`), of at most
+#: ``learners.som.config.MAX_NEURONS`` neurons.
+lattice = _text_type(_lattice, "lattice")
 #: ``--orientations yaw:90,tilt:45`` or ``ball:30``: the grasp task's range, as its spelling
 #: (:meth:`models.puma560.grasp.OrientationRange.parse`).
 orientation_range = _text_type(
@@ -165,7 +181,7 @@ orientation_range = _text_type(
 )
 #: ``--big 40x40x40`` or ``--big none``: a lattice or None.
 lattice_or_none = _text_type(
-    lambda text: None if text == "none" else sizes.parse_lattice(text), "lattice or none"
+    lambda text: None if text == "none" else _lattice(text), "lattice or none"
 )
 
 
