@@ -8,6 +8,7 @@ gets its name only once ffmpeg has succeeded and the file holds every frame writ
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import tempfile
@@ -139,7 +140,8 @@ class VideoWriter:
         if self._ffmpeg is not None:
             self._ffmpeg.kill()
             self._ffmpeg.wait()
-        self.partial.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # gone, or not ffmpeg's (a folder of that name)
+            self.partial.unlink()
         self._done()
 
     def _fail(self, what: str) -> NoReturn:
