@@ -49,6 +49,13 @@ LATTICES = [
     ("bench_som", ["--big"]),
 ]
 BAD_LATTICES = ["100000x100000x100000", "0x2x2", "3x"]
+#: Mistakes of one program's own: a grid file that does not parse or is missing, a pose of the
+#: wrong length.
+OTHER_MISTAKES = [
+    ("sweep", ["--spec", "file"], "--spec file"),
+    ("sweep", ["--spec", "missing.json"], "--spec missing.json"),
+    ("accuracy", ["--pose", "1", "2"], "--pose"),
+]
 ABSURD = str(10**12)
 #: s after which a program given a mistake is taken to have started work (TimeoutExpired).
 WORK = 120
@@ -71,6 +78,7 @@ def _cases() -> list[tuple[str, list[str], str]]:
     cases += [(name, [*flag, bad], flag[-1]) for name, flag in LATTICES for bad in BAD_LATTICES]
     memory = ["--controller", "analytic", "--targets", "1000000", "--fine-moves", "1000"]
     cases.append(("evaluate", memory, "--fine-moves"))  # each bounded, the product is not
+    cases += OTHER_MISTAKES
     return cases
 
 

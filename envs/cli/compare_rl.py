@@ -42,7 +42,7 @@ def import_torch_first():
         import torch
         import torch._dynamo
     except ImportError as exc:
-        raise SystemExit(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'") from exc
+        cli.fail(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'")
     return torch
 
 
@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     args = p.parse_args(argv)
     if args.report_only:
         if not rl_report.has_runs(args.out):
-            raise SystemExit(f"--report-only: no finished runs or curves.jsonl in {args.out}")
+            cli.fail(f"--report-only: no finished runs or curves.jsonl in {args.out}")
         print(rl_report.report(args.out, args.targets, args.table_at))
         return []
     import_torch_first().set_num_threads(TORCH_THREADS)

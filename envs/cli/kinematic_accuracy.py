@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> None:
     joints = len(rc.joints)
     theta = arm_kinematics(args.robot, joints).home if args.pose is None else np.radians(args.pose)
     if theta.shape != (joints,):
-        raise SystemExit(f"--pose needs {joints} angles (degrees) for {args.robot}")
+        cli.fail(f"--pose needs {joints} angles (degrees) for {args.robot}")
     out = args.out or Path("runs/accuracy") / args.robot
     out.mkdir(parents=True, exist_ok=True)
 
