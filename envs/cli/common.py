@@ -9,6 +9,7 @@ import math
 import os
 import signal
 import sys
+import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -120,7 +121,8 @@ def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
 def count(least: int = 1, most: int = MAX_COUNT, why: str = "") -> Callable[[str], int]:
     """An argparse type: an integer from ``least`` to ``most``; ``why`` (the bound's reason)
     follows the upper bound in the message."""
-    below = _number(int, lambda n: n >= least, f"an integer {'> 0' if least == 1 else '>= 0'}")
+    wanted = "an integer > 0" if least == 1 else f"an integer >= {least}"
+    below = _number(int, lambda n: n >= least, wanted)
     above = f"at most {most:,}" + (f" ({why})" if why else "")
 
     def parse(text: str) -> int:
@@ -320,11 +322,12 @@ def run(main: Callable[[], object]) -> None:
     (where a program does not stop on it itself) is one line, exit 130."""
     from learners.persistence import output_error
 
-    # Ctrl-C raises KeyboardInterrupt from here on (scripts/_startup.py exits at once before).
-    signal.signal(signal.SIGINT, signal.default_int_handler)
     sys.stdout.reconfigure(line_buffering=True)
     errors = user_errors()
     try:
+        if threading.current_thread() is threading.main_thread():
+            # Ctrl-C raises KeyboardInterrupt from here on (scripts/_startup.py exits before).
+            signal.signal(signal.SIGINT, signal.default_int_handler)
         main()
     except errors as exc:
         fail(str(exc))
