@@ -5,6 +5,8 @@ RL loop.
 The program is :mod:`envs.cli.bench_envs` (also installed as a console script).
 """
 
+import _startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+
 from envs.cli.bench_envs import run
 
 if __name__ == "__main__":

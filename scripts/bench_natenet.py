@@ -3,6 +3,8 @@
 The program is :mod:`envs.cli.bench_natenet` (also installed as a console script).
 """
 
+import _startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+
 from envs.cli.bench_natenet import run
 
 if __name__ == "__main__":

@@ -4,6 +4,8 @@ fraction of the marker that the robot hides.
 The program is :mod:`envs.cli.sensing_accuracy` (also installed as a console script).
 """
 
+import _startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+
 from envs.cli.sensing_accuracy import run
 
 if __name__ == "__main__":

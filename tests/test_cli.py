@@ -17,7 +17,7 @@ from learners.persistence import write_atomic
 
 from helpers import SCRIPTS, one_line_error
 
-COMMANDS = sorted(p.stem for p in SCRIPTS.glob("*.py"))
+COMMANDS = sorted(p.stem for p in SCRIPTS.glob("[!_]*.py"))  # _startup.py is no program
 
 
 def _run(*args: str, **kw) -> subprocess.CompletedProcess:
@@ -106,3 +106,15 @@ def test_written_files_get_the_mode_open_would_give(tmp_path, umask, mode):
     finally:
         os.umask(old)
     assert path.stat().st_mode & 0o777 == mode
+
+
+def test_a_long_message_is_one_line_that_keeps_its_start_and_its_end():
+    from envs.cli.common import short
+
+    array = np.array2string(np.arange(2000) * 1e-3, threshold=10**6)  # 160 lines, 16 KB
+    text = short(f"w is damaged: {array}; restore it from a copy")
+    assert "\n" not in text and len(text) == 200
+    assert text.startswith("w is damaged: [0.") and text.endswith("; restore it from a copy")
+    folder = "/" + "/".join(["a_long_folder_name"] * 12)  # 229 characters of folders
+    path = f"{folder}/checkpoint.npz"
+    assert short(f"{path}: damaged; restore it") == f"{path}: damaged; restore it"  # not cut

@@ -17,6 +17,10 @@ SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 TINY = ["--trials", "20", "--lattice", "3x2x2", "--eval-every", "10", "--eval-trials", "3"]
 #: Size of the test's tmpfs: room for a tiny run (about 12 KiB) and little more.
 TMPFS_SIZE = "64k"
+#: Room for an old video and a few pages; the new video (some 100 KiB) does not fit.
+VIDEO_TMPFS_SIZE = "256k"
+#: Room for a tiny run and its evaluation's figures (about 400 KiB).
+EVAL_TMPFS_SIZE = "2m"
 
 
 def _script(name: str, *args: object) -> str:
@@ -106,7 +110,7 @@ def test_a_full_disk_is_one_line_and_leaves_no_lock(mounts, run, tmp_path):
     assert (train_status, listing, evaluate_status) == ("2", "", "2"), result.stderr
     lines = [line for line in result.stderr.splitlines() if "error:" in line]
     assert len(lines) == 2 and "Traceback" not in result.stderr, result.stderr
-    assert f"{folder}/t/run.lock: cannot write (No space left on device)" in lines[0]
+    assert f"{folder}/t: cannot write (No space left on device)" in lines[0]
     assert f"{folder}/e: cannot write (No space left on device)" in lines[1]
 
 
@@ -127,8 +131,107 @@ def test_a_save_that_runs_out_of_space_keeps_the_checkpoint(mounts, run, tmp_pat
     )
     status, same, listing, resumed = _results(result.stdout)
     assert status == "2", result.stderr
-    assert "checkpoint.npz: cannot write (No space left on device)" in result.stderr
+    line = _error_line(result.stderr, "train.py")  # on its own line, after the progress bar
+    assert "checkpoint.npz: cannot write (No space left on device)" in line
     assert same == "same" and (run / "checkpoint.npz").read_bytes() == before
     assert listing == "checkpoint.npz metrics.jsonl"  # no lock, no temporary file
     assert resumed == "0", result.stderr
     assert "trained 40 trials" in result.stdout
+
+
+def test_a_fresh_run_onto_a_full_disk_leaves_no_folder(mounts, tmp_path):
+    folder = tmp_path / "full"
+    folder.mkdir()
+    train = _script("train", *TINY, "--out", folder / "new" / "t")
+    result = _in_private_mounts(
+        f"mount -t tmpfs -o size={TMPFS_SIZE} tmpfs {folder} && "
+        + _fill(folder, 0)
+        + f"{train}; echo result:$?; echo result:$(ls -A {folder})"
+    )
+    assert _results(result.stdout) == ["2", "fill"], result.stderr
+    assert "cannot write (No space left on device)" in _error_line(result.stderr, "train.py")
+
+
+def _error_line(stderr: str, program: str) -> str:
+    """The one error line of ``stderr``, which must start a line of its own (after a progress
+    bar only the carriage returns and blanks that clear it may precede it); no traceback."""
+    lines = [line for line in stderr.split("\n") if "error:" in line]
+    assert len(lines) == 1 and "Traceback" not in stderr, stderr
+    before, said, rest = lines[0].partition(f"{program}: error: ")
+    assert said and before.strip("\r ") == "", repr(lines[0][:300])
+    return rest
+
+
+def _listing(folder: Path) -> str:
+    """Shell that prints ``result:`` and the names in ``folder``, and one more ``result:`` line
+    per file with its checksum."""
+    return f"echo result:$(ls -A {folder}); echo result:$(cd {folder} && cksum * | sort -k3); "
+
+
+def test_a_video_that_fills_the_disk_is_one_line_and_keeps_nothing_half_written(mounts, tmp_path):
+    """ffmpeg runs out of space while it encodes: one line, exit 2, no file under the video's
+    name and no ``.partial``; an older video of that name and other files are left as they
+    were."""
+    folder = tmp_path / "video"
+    folder.mkdir()
+    video = _script(
+        "video", "--env", "RiacsReach-v0", "--controller", "random", "--sensing", "project",
+        "--control", "kinematic", "--trials", "3", "--out", folder / "v.mp4",
+    )  # fmt: skip
+    result = _in_private_mounts(
+        f"mount -t tmpfs -o size={VIDEO_TMPFS_SIZE} tmpfs {folder} && "
+        f"head -c 5000 /dev/urandom > {folder}/v.mp4 && echo kept > {folder}/notes.txt && "
+        + _listing(folder)
+        + _fill(folder, 4)
+        + f"{video}; echo result:$?; rm {folder}/fill; "
+        + _listing(folder)
+    )
+    names_before, sums_before, status, names_after, sums_after = _results(result.stdout)
+    assert status == "2", result.stderr
+    line = _error_line(result.stderr, "video.py")
+    assert f"{folder}/v.mp4: video not written" in line, line
+    assert names_after == names_before == "notes.txt v.mp4"  # no v.mp4.partial
+    assert _sums(sums_after) == _sums(sums_before)  # the old v.mp4 is untouched
+    assert "wrote" not in result.stdout
+
+
+#: Controllers enough for an evaluation.json of two 4 KiB pages (one is some 640 bytes).
+MANY = ["--compare", *["analytic", "jacobian", "random"] * 3]
+
+
+@pytest.mark.parametrize("part", ["figures", "table"])
+def test_plots_or_json_that_fill_the_disk_are_one_line_and_keep_nothing_half_written(
+    part, mounts, run, tmp_path
+):
+    """evaluate.py, again over an earlier evaluation, with one free page: room for the table
+    (evaluation.json) but not for the figures, or with a table too large for it. One line,
+    exit 2; no temporary and no torn file: the files not rewritten are byte for byte the
+    earlier ones, a rewritten table is whole."""
+    folder = tmp_path / "eval"
+    folder.mkdir()
+    evaluate = _script("evaluate", "--run", folder / "run", "--targets", "3")
+    again = evaluate + (" " + shlex.join(MANY) if part == "table" else "")
+    result = _in_private_mounts(
+        f"mount -t tmpfs -o size={EVAL_TMPFS_SIZE} tmpfs {folder} && cp -r {run} {folder}/run && "
+        f"{evaluate} > /dev/null && "
+        + _listing(f"{folder}/run/eval")
+        + _fill(folder, 1)
+        + f"{again}; echo result:$?; "
+        + _listing(f"{folder}/run/eval")
+        + f"python3 -m json.tool {folder}/run/eval/evaluation.json > /dev/null; echo result:$?"
+    )
+    names_before, sums_before, status, names_after, sums_after, json_ok = _results(result.stdout)
+    assert status == "2", result.stderr
+    line = _error_line(result.stderr, "evaluate.py")
+    written = "run/learning_curve.png" if part == "figures" else "run/eval/evaluation.json"
+    assert f"{written}: cannot write (No space left on device)" in line, line
+    assert names_after == names_before  # every figure is there, no temporary beside them
+    changed = {n for n, sum_ in _sums(sums_after).items() if _sums(sums_before)[n] != sum_}
+    assert changed == ({"evaluation.json"} if part == "figures" else set()), changed
+    assert json_ok == "0"
+
+
+def _sums(listing: str) -> dict[str, tuple[str, str]]:
+    """File name -> (checksum, size) of a ``cksum`` listing joined on one line."""
+    words = listing.split()
+    return {words[k + 2]: (words[k], words[k + 1]) for k in range(0, len(words), 3)}

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from envs.harness.video import VideoWriter
+from envs.harness.video import VideoError, VideoWriter
 
 COLOURS = [(230, 30, 30), (30, 230, 30), (30, 30, 230), (200, 200, 40)]  # RGB, one per frame
 COLOUR_TOL = 12  # per channel: H.264 at default quality and yuv420p chroma are lossy
@@ -47,3 +47,27 @@ def test_bad_frames_are_refused(tmp_path):
         video.write(np.zeros((8, 8, 3), dtype=np.uint8))
         with pytest.raises(ValueError, match="differs from the first"):
             video.write(np.zeros((16, 8, 3), dtype=np.uint8))
+
+
+def test_a_failed_encoder_is_one_line_and_leaves_the_old_video(tmp_path):
+    """ffmpeg cannot open its output (a folder holds the partial file's name): VideoError in
+    one line quoting ffmpeg, nothing under the video's name but the old file, unchanged."""
+    path = tmp_path / "clip.mp4"
+    path.write_bytes(b"an older video")
+    (tmp_path / "clip.mp4.partial").mkdir()
+    with pytest.raises(VideoError) as caught:
+        with VideoWriter(path, fps=5) as video:
+            for colour in COLOURS * 50:  # enough bytes to fill the pipe to a dead ffmpeg
+                video.write(np.full((48, 64, 3), colour, dtype=np.uint8))
+    message = str(caught.value)
+    assert "\n" not in message and message.startswith(f"{path}: video not written (ffmpeg")
+    assert path.read_bytes() == b"an older video"
+
+
+def test_an_exception_while_filming_keeps_no_file(tmp_path):
+    path = tmp_path / "clip.mp4"
+    with pytest.raises(KeyboardInterrupt):
+        with VideoWriter(path, fps=5) as video:
+            video.write(np.zeros((48, 64, 3), dtype=np.uint8))
+            raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []

@@ -31,11 +31,11 @@ unwrapped (no TimeLimit or checker), the peer too.
 
 from __future__ import annotations
 
-import json
 from importlib.util import find_spec
 
 from envs.cli import common as cli
 from envs.cli import options
+from envs.harness.run_folder import write_json
 from envs.studies import env_speed as speed
 
 
@@ -80,8 +80,7 @@ def main(argv: list[str] | None = None) -> dict:
         )
         print(speed.format_rl_table(results["rl_loop"]))
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=2) + "\n")
+        write_json(args.json, results)
         print(f"wrote {args.json}")
     return results
 

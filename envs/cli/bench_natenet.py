@@ -13,7 +13,6 @@ exact targets (the query cost depends only on the node count). Writes ``bench.js
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -22,6 +21,7 @@ import numpy as np
 
 from envs.cli import common as cli
 from envs.cli import options
+from envs.harness.run_folder import write_json
 from learners.natenet import NATEnet
 from models.paths import sample_path
 from models.puma560.kinematics import jacobian
@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> dict:
         }
         print(f"{mode:>8} {t_net * 1e6:12.2f} {t_exact * 1e6:10.2f} {t_exact / t_net:14.2f}")
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "bench.json").write_text(json.dumps(result, indent=2))
+    write_json(args.out / "bench.json", result)
     return result
 
 

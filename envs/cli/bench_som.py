@@ -24,11 +24,11 @@ Writes ``bench_som.json``.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from envs.cli import common as cli
 from envs.cli import options
+from envs.harness.run_folder import write_json
 from envs.studies.map_speed import benchmark
 
 
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> dict:
         args.big_trials, args.seed,
     )  # fmt: skip
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "bench_som.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_json(args.out / "bench_som.json", result)
     return result
 
 

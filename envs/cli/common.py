@@ -1,13 +1,18 @@
 """What every script shares: help that shows the whole description and every default, argument
-types that check their values, line-buffered output, and user errors as one line (exit 2)."""
+types that check their values (counts bounded, output paths usable), line-buffered output, user
+errors as one short line (exit 2) on a line of its own, and Ctrl-C as one line (exit 130)."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import os
+import signal
 import sys
-from collections.abc import Callable, Iterable, Sequence
+import threading
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
 from typing import NoReturn, TypeVar
 
 from tqdm import tqdm
@@ -18,6 +23,19 @@ from models.puma560.grasp import OrientationRange
 T = TypeVar("T")
 #: Exit status of a command-line mistake (as argparse uses).
 USAGE_ERROR = 2
+#: Exit status after Ctrl-C (the shell's 128 + SIGINT).
+INTERRUPTED = 128 + signal.SIGINT
+#: Longest error message printed (characters); a longer one keeps its start and its end.
+MAX_MESSAGE = 200
+#: Most of any count option: a run of 10^8 steps of even a millisecond takes a day.
+MAX_COUNT = 10**8
+#: Most held-out targets or evaluation trials: their errors after each move are kept in memory,
+#: and 10^6 reach trials take hours.
+MAX_TARGETS = 10**6
+#: Most fine moves after a coarse move (the maps converge within a few; each is a trial step).
+MAX_FINE_MOVES = 1000
+#: Most errors an evaluation keeps (targets x moves): 10^7 float64 are 80 MB per array.
+MAX_ERRORS = 10**7
 
 
 def _help_with_default(action: argparse.Action) -> str:
@@ -50,7 +68,21 @@ class _Parser(argparse.ArgumentParser):
         return action
 
     def error(self, message: str) -> NoReturn:
-        self.exit(USAGE_ERROR, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        _close_bars()
+        said = f"{self.prog}: error: "
+        text = short(f"{message} (see {self.prog} --help)", MAX_MESSAGE - len(said))
+        self.exit(USAGE_ERROR, f"{said}{text}\n")
+
+    def parse_args(self, args=None, namespace=None):  # type: ignore[override]
+        """Parsed as argparse does; then output paths (:func:`out_folder`, :func:`out_file`,
+        defaults too) are checked: a file where a folder is needed, a parent that is not a
+        folder, a folder that cannot be written. Nothing is created."""
+        parsed = super().parse_args(args, namespace)
+        for action in self._actions:
+            value = getattr(parsed, action.dest, None)
+            if action.type in (out_folder, out_file) and value is not None:
+                check_out(action.option_strings[0], Path(value), folder=action.type is out_folder)
+        return parsed
 
 
 def parser(doc: str | None) -> argparse.ArgumentParser:
@@ -61,9 +93,15 @@ def parser(doc: str | None) -> argparse.ArgumentParser:
 def add_count(
     parser: argparse.ArgumentParser, flag: str, default: int, help: str, *, least: int = 1
 ) -> argparse.Action:
-    """A program's own count option: an integer >= ``least`` (1 or 0) with a default."""
+    """A program's own count option: an integer from ``least`` (1 or 0) to ``MAX_COUNT`` with a
+    default."""
     kind = {1: positive_int, 0: nonnegative_int}[least]
     return parser.add_argument(flag, type=kind, default=default, help=help)
+
+
+def _shown(text: str) -> str:
+    """A command-line value as an error quotes it: its repr, at most 40 characters."""
+    return repr(text) if len(text) <= 40 else repr(text[:30]) + f"... ({len(text)} characters)"
 
 
 def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
@@ -71,17 +109,36 @@ def _number(kind: Callable[[str], T], test: Callable[[T], bool], wanted: str):
         try:
             value = kind(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"wants {wanted}, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"wants {wanted}, got {_shown(text)}") from None
         if not test(value):
-            raise argparse.ArgumentTypeError(f"wants {wanted}, got {text!r}")
+            raise argparse.ArgumentTypeError(f"wants {wanted}, got {_shown(text)}")
         return value
 
     parse.__name__ = wanted  # argparse names the type in its messages
     return parse
 
 
-positive_int = _number(int, lambda n: n > 0, "an integer > 0")
-nonnegative_int = _number(int, lambda n: n >= 0, "an integer >= 0")
+def count(least: int = 1, most: int = MAX_COUNT, why: str = "") -> Callable[[str], int]:
+    """An argparse type: an integer from ``least`` to ``most``; ``why`` (the bound's reason)
+    follows the upper bound in the message."""
+    wanted = "an integer > 0" if least == 1 else f"an integer >= {least}"
+    below = _number(int, lambda n: n >= least, wanted)
+    above = f"at most {most:,}" + (f" ({why})" if why else "")
+
+    def parse(text: str) -> int:
+        value = below(text)
+        if value > most:
+            raise argparse.ArgumentTypeError(f"wants {above}, got {_shown(text)}")
+        return value
+
+    parse.__name__ = f"an integer from {least} to {most}"
+    return parse
+
+
+positive_int = count(1)
+nonnegative_int = count(0)
+#: A seed of numpy's generators: any integer >= 0.
+seed = _number(int, lambda n: n >= 0, "an integer >= 0")
 positive_float = _number(float, lambda x: math.isfinite(x) and x > 0, "a finite number > 0")
 nonnegative_float = _number(float, lambda x: math.isfinite(x) and x >= 0, "a finite number >= 0")
 
@@ -101,8 +158,24 @@ def _text_type(parse: Callable[[str], T], name: str) -> Callable[[str], T]:
 
 #: ``--image-size 640x480``: (width, height) px (:func:`envs.sizes.parse_size`).
 image_size = _text_type(sizes.parse_size, "WIDTHxHEIGHT")
-#: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`).
-lattice = _text_type(sizes.parse_lattice, "lattice")
+
+
+def _lattice(text: str) -> tuple[int, ...]:
+    """:func:`envs.sizes.parse_lattice`, and no more neurons than fit in memory."""
+    from learners.som.config import MAX_NEURONS
+
+    shape = sizes.parse_lattice(text)
+    if math.prod(shape) > MAX_NEURONS:
+        raise ValueError(
+            f"{_shown(text)} has {math.prod(shape):,} neurons; at most {MAX_NEURONS:,} fit in "
+            "memory (40x40x40 has 64,000)"
+        )
+    return shape
+
+
+#: ``--lattice 12x7x4``: the shape as a tuple (:func:`envs.sizes.parse_lattice`), of at most
+#: ``learners.som.config.MAX_NEURONS`` neurons.
+lattice = _text_type(_lattice, "lattice")
 #: ``--orientations yaw:90,tilt:45`` or ``ball:30``: the grasp task's range, as its spelling
 #: (:meth:`models.puma560.grasp.OrientationRange.parse`).
 orientation_range = _text_type(
@@ -110,8 +183,54 @@ orientation_range = _text_type(
 )
 #: ``--big 40x40x40`` or ``--big none``: a lattice or None.
 lattice_or_none = _text_type(
-    lambda text: None if text == "none" else sizes.parse_lattice(text), "lattice or none"
+    lambda text: None if text == "none" else _lattice(text), "lattice or none"
 )
+
+
+def out_folder(text: str) -> Path:
+    """An argparse type: an output folder, checked after parsing (:func:`check_out`)."""
+    return Path(text)
+
+
+def out_file(text: str) -> Path:
+    """An argparse type: an output file, checked after parsing (:func:`check_out`)."""
+    return Path(text)
+
+
+def check_out(flag: str, path: Path, folder: bool) -> None:
+    """Exit with one line (status 2) unless ``path`` can become the output folder (``folder``)
+    or file: not a file where a folder is needed nor a folder where a file is, under a folder
+    (not a file) that can be written (a probe file, removed: nothing is created)."""
+    from envs.harness.run_folder import check_writable
+    from learners.persistence import OutputError
+
+    if folder and path.exists() and not path.is_dir():
+        fail(f"{flag} {path} is a file, not a folder; choose another {flag}")
+    if not folder and path.is_dir():
+        fail(f"{flag} {path} is a folder; give the name of a file (in it or elsewhere)")
+    existing = next(p for p in path.absolute().parents if p.exists())
+    if not existing.is_dir():
+        fail(f"{flag} {path}: {existing} is a file, not a folder; choose another {flag}")
+    try:
+        check_writable(path if folder else path.parent)
+    except OutputError as exc:
+        fail(str(exc))
+
+
+@contextmanager
+def removed_if_refused(folder: Path) -> Iterator[None]:
+    """Remove ``folder`` and the parents it created if the block fails (a user error, Ctrl-C,
+    any exception) and leaves them empty: a refused run leaves no folder behind."""
+    made = [p for p in (folder, *folder.parents) if not p.exists()]  # deepest first
+    try:
+        yield
+    except BaseException:
+        for path in made:
+            try:
+                path.rmdir()
+            except OSError:  # not empty (work was kept) or already gone
+                break
+        raise
 
 
 def check_image_size(env_id: str, size: tuple[int, int]) -> None:
@@ -164,23 +283,57 @@ def user_errors() -> tuple[type[BaseException], ...]:
     )
 
 
-def fail(message: str) -> None:
-    """Print ``prog: error: message`` as one line and exit with status 2."""
-    print(f"{os.path.basename(sys.argv[0])}: error: {message}", file=sys.stderr)
+def short(message: str, limit: int = MAX_MESSAGE) -> str:
+    """``message`` on one line of at most ``limit`` characters besides the folders of the paths
+    it names (a path is not cut for being long): line breaks become spaces, and a longer one
+    keeps its start (what) and its end (what to do) around " ... ". Messages should be short
+    where they are made; this is the limit."""
+    text = " ".join(message.split())
+    limit += sum(len(word) - len(os.path.basename(word)) for word in text.split() if "/" in word)
+    if len(text) <= limit:
+        return text
+    head = limit * 3 // 5
+    return f"{text[:head]} ... {text[head + 5 - limit :]}"
+
+
+def _close_bars() -> None:
+    """Close the progress bars still shown, so that what follows starts on a line of its own."""
+    for bar in list(getattr(tqdm, "_instances", ())):  # tqdm keeps no public list
+        bar.close()
+
+
+def _say(message: str) -> None:
+    """Print ``prog: message`` on stderr as one line of at most ``MAX_MESSAGE`` characters
+    (:func:`short`), on a line of its own after any progress bar."""
+    _close_bars()
+    said = f"{os.path.basename(sys.argv[0])}: "
+    print(said + short(message, MAX_MESSAGE - len(said)), file=sys.stderr)
+
+
+def fail(message: str) -> NoReturn:
+    """Print ``prog: error: message`` as one short line and exit with status 2."""
+    _say(f"error: {message}")
     raise SystemExit(USAGE_ERROR)
 
 
 def run(main: Callable[[], object]) -> None:
     """Run a script's ``main`` with line-buffered stdout and user errors as one line, exit 2;
-    a write that failed for lack of space or permission is one too (naming its file)."""
+    a write that failed for lack of space or permission is one too (naming its file). Ctrl-C
+    (where a program does not stop on it itself) is one line, exit 130."""
     from learners.persistence import output_error
 
     sys.stdout.reconfigure(line_buffering=True)
     errors = user_errors()
     try:
+        if threading.current_thread() is threading.main_thread():
+            # Ctrl-C raises KeyboardInterrupt from here on (scripts/_startup.py exits before).
+            signal.signal(signal.SIGINT, signal.default_int_handler)
         main()
     except errors as exc:
         fail(str(exc))
+    except KeyboardInterrupt:
+        _say("interrupted (Ctrl-C); outputs not finished were not kept")
+        raise SystemExit(INTERRUPTED) from None
     except OSError as exc:
         error = output_error(exc, "the output")
         if error is None:

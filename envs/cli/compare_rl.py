@@ -42,7 +42,7 @@ def import_torch_first():
         import torch
         import torch._dynamo
     except ImportError as exc:
-        raise SystemExit(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'") from exc
+        cli.fail(f"compare_rl needs the rl extra ({exc}); pip install -e '.[rl]'")
     return torch
 
 
@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     )
     options.CONTROL.add(p, default=RunConfig.control, note=options.run_setting_note("control"))
     p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
-    p.add_argument("--seeds", nargs="+", type=cli.nonnegative_int, default=[0, 1, 2])
+    p.add_argument("--seeds", nargs="+", type=cli.seed, default=[0, 1, 2])
     cli.add_count(p, "--budget", 10_000, "env steps per method and seed")
     cli.add_count(p, "--checkpoints", 6, "evaluations, log-spaced")
     options.TARGETS.add(p, help="held-out targets per evaluation")
@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> list[Curve]:
     args = p.parse_args(argv)
     if args.report_only:
         if not rl_report.has_runs(args.out):
-            raise SystemExit(f"--report-only: no finished runs or curves.jsonl in {args.out}")
+            cli.fail(f"--report-only: no finished runs or curves.jsonl in {args.out}")
         print(rl_report.report(args.out, args.targets, args.table_at))
         return []
     import_torch_first().set_num_threads(TORCH_THREADS)

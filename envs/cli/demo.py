@@ -8,7 +8,6 @@ IK) and camera images.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -19,8 +18,10 @@ import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli import evaluate, options, train, video
 from envs.composite import CompositeView, draw_inset
+from envs.harness.run_folder import write_json
 from envs.reach import ReachEnv
 from envs.robots import ROBOTS
+from learners.persistence import write_atomic
 
 CAMERAS = ("cam_left", "cam_right", "overview")  # in the order of CompositeView.panels
 SCENE_IMAGE_SIZE = (640, 480)  # width, height of each scene image, pixels
@@ -52,9 +53,8 @@ def scene_images(out: Path) -> list[Path]:
             if ROBOTS[name].magnify and k < 2:
                 draw_inset(image, view.to_panel(marker[2 * k : 2 * k + 2]), height / 480)
             path = out / f"{name}_{camera}.png"
-            path.parent.mkdir(parents=True, exist_ok=True)
-            cv2.imwrite(str(path), image[..., ::-1])
-            paths.append(path)
+            _, png = cv2.imencode(".png", image[..., ::-1])  # cv2.imwrite hides a failed write
+            paths.append(write_atomic(path, lambda f, png=png: f.write(png.tobytes())))
         view.close()
         env.close()
     return paths
@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> None:
         video.main(["--env", env_id, "--controller", str(args.out / short / "checkpoint.npz"),
                     "--compare", "analytic", "--trials", "5",
                     "--out", str(args.out / f"{short}_som.mp4")])  # fmt: skip
-    (args.out / "summary.json").write_text(json.dumps(results, indent=1))
+    write_json(args.out / "summary.json", results)
     print(f"\nDone in {time.time() - start:.0f} s. Under {args.out}/:")
     print("  scenes/*.png                 both cameras and an overview of each scene")
     shorts = [short for _, short in runs()]

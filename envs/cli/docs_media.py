@@ -24,6 +24,7 @@ from envs.cli.controllers import make_controller
 from envs.harness.film import TrialFilm, side_by_side
 from envs.harness.grasp_film import grasp_frames
 from envs.reach import REACH_ENV_IDS
+from learners.persistence import write_atomic
 
 GIF_FPS = 12.0  # frames per second of the animations
 GIF_PANEL = (256, 192)  # width, height of each panel of the reach animations, pixels
@@ -64,8 +65,8 @@ def write_gif(frames: list[np.ndarray], path: Path, fps: float) -> Path:
     """A looping GIF of RGB frames; ValueError if it is not under MAX_BYTES."""
     import imageio.v3 as iio
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    iio.imwrite(path, np.stack(frames), extension=".gif", duration=1000 / fps, loop=0)
+    gif = iio.imwrite("<bytes>", np.stack(frames), extension=".gif", duration=1000 / fps, loop=0)
+    write_atomic(path, lambda f: f.write(gif))
     size = path.stat().st_size
     if size >= MAX_BYTES:
         raise ValueError(f"{path} is {size} bytes, over {MAX_BYTES}; use fewer --trials")

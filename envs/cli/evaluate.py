@@ -126,7 +126,14 @@ def main(argv: list[str] | None = None) -> dict:
         run_config.get("height", IMAGE_HEIGHT),
     )
     cli.check_image_size(env_id, (width, height))
-    out = check_writable(args.out or (args.run / "eval" if args.run else Path("runs/eval")))
+    if args.targets * (args.fine_moves + 1) > cli.MAX_ERRORS:
+        cli.fail(
+            f"--targets {args.targets} with --fine-moves {args.fine_moves} keep "
+            f"{args.targets * (args.fine_moves + 1):,} errors; at most {cli.MAX_ERRORS:,} "
+            "(targets x moves) fit in memory: give fewer"
+        )
+    out = args.out or (args.run / "eval" if args.run else Path("runs/eval"))
+    cli.check_out("--out", out, folder=True)  # --out itself was checked as it was parsed
     specs = [str(checkpoint_path(args.run)) if args.run else args.controller, *args.compare]
     pose = env_id in GRASP_ENV_IDS
     check_task(specs, pose)
@@ -139,7 +146,6 @@ def main(argv: list[str] | None = None) -> dict:
         cli.fail(f"--orientations is for {', '.join(GRASP_ENV_IDS)}, not {env_id}")
     task = {"orientations": orientations} if orientations is not None else {}
     env = gym.make(env_id, sensing=sensing, control=control, width=width, height=height, **task)
-
     rows, results = [], {}
     for spec in specs:
         controller = make_controller(spec, env, args.seed)
@@ -171,18 +177,19 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"{env_id}  sensing={sensing} ({format_size(width, height)})  control={control}  "
           f"{args.targets} held-out targets, evaluation set {args.seed}")  # fmt: skip
     print(format_pose_table(rows) if pose else format_table(rows))
-    out.mkdir(parents=True, exist_ok=True)
-    if pose:
-        print(f"objects' orientations: {env.unwrapped.orientations.spec()}")
-    summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
-               "width": width, "height": height,
-               "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
-    write_json(out / "evaluation.json", summary)
+    with cli.removed_if_refused(out):  # a failed write leaves no empty folder
+        out.mkdir(parents=True, exist_ok=True)
+        if pose:
+            print(f"objects' orientations: {env.unwrapped.orientations.spec()}")
+        summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
+                   "width": width, "height": height,
+                   "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip
+        write_json(out / "evaluation.json", summary)
 
-    if plotted:
-        som = VisuomotorSOM.load(specs[0])
-        write_plots(env, som, results[rows[0]["controller"]], metrics, args.run, out)
-        print(f"plots in {out}")
+        if plotted:
+            som = VisuomotorSOM.load(specs[0])
+            write_plots(env, som, results[rows[0]["controller"]], metrics, args.run, out)
+            print(f"plots in {out}")
     env.close()
     return summary
 

@@ -33,7 +33,9 @@ def main(argv: list[str] | None = None) -> Path:
     options.FINE_MOVES.add(p, default=FINE_MOVES)
     p.add_argument("--trials-per-leaf", type=cli.positive_float, nargs="+",
                    default=list(TRIALS_PER_LEAF), help="training budgets")  # fmt: skip
-    options.OUT.add(p, default=Path("runs/grasp_learning.png"), help="the figure's file")
+    options.OUT.add(
+        p, type=cli.out_file, default=Path("runs/grasp_learning.png"), help="the figure's file"
+    )
     args = p.parse_args(argv)
     check_writable(args.out.parent)
     from envs.studies.grasp_learning_plot import write

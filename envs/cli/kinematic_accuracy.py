@@ -14,13 +14,13 @@ Writes ``accuracy.json`` under ``--out``.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 
 from envs.cli import common as cli
 from envs.cli import options
+from envs.harness.run_folder import write_json
 from models.analyses import nemecek_accuracy as acc
 from models.arms import arm_kinematics
 
@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> None:
     joints = len(rc.joints)
     theta = arm_kinematics(args.robot, joints).home if args.pose is None else np.radians(args.pose)
     if theta.shape != (joints,):
-        raise SystemExit(f"--pose needs {joints} angles (degrees) for {args.robot}")
+        cli.fail(f"--pose needs {joints} angles (degrees) for {args.robot}")
     out = args.out or Path("runs/accuracy") / args.robot
     out.mkdir(parents=True, exist_ok=True)
 
@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> None:
         "sensitivity_dphi_per_unit": dphi.tolist(),
         "checks": checks,
     }
-    (out / "accuracy.json").write_text(json.dumps(result, indent=2))
+    write_json(out / "accuracy.json", result)
     print(f"\nwrote {out / 'accuracy.json'}")
 
 

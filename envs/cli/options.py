@@ -19,7 +19,6 @@ import argparse
 import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from envs.cli import common as cli
@@ -99,20 +98,29 @@ CONTROL = ModeOption(
     "how a command moves the arm",
     {"servo": "the position actuators, simulated", "kinematic": "the joints set at once"},
 )
-SEED = Option("--seed", {"type": cli.nonnegative_int, "default": 0, "help": "random seed"})
-OUT = Option("--out", {"type": Path, "help": "output folder"})
-JSON = Option("--json", {"type": Path, "default": None, "help": "also write the results here"})
+SEED = Option("--seed", {"type": cli.seed, "default": 0, "help": "random seed"})
+#: A program that writes one file (a video, a figure) adds it with ``type=cli.out_file``.
+OUT = Option("--out", {"type": cli.out_folder, "help": "output folder"})
+JSON = Option(
+    "--json", {"type": cli.out_file, "default": None, "help": "also write the results here"}
+)
 IMAGE_SIZE = Option(
     "--image-size", {"type": cli.image_size, "help": "sensing images WIDTHxHEIGHT, e.g. 640x480"}
 )
 TRIALS = Option("--trials", {"type": cli.positive_int, "help": "trials"})
-TARGETS = Option("--targets", {"type": cli.positive_int, "default": 1000, "help": "targets"})
+#: Held-out targets: their errors are kept in memory (``cli.MAX_TARGETS``).
+TARGET_COUNT = cli.count(most=cli.MAX_TARGETS, why="each target's errors are kept in memory")
+TARGETS = Option("--targets", {"type": TARGET_COUNT, "default": 1000, "help": "targets"})
 FINE_MOVES = Option(
     "--fine-moves",
-    {"type": cli.nonnegative_int, "default": 2, "help": "fine moves after the coarse move"},
+    {
+        "type": cli.count(0, cli.MAX_FINE_MOVES, "each is a move of every trial"),
+        "default": 2,
+        "help": "fine moves after the coarse move",
+    },
 )
 EVAL_TRIALS = Option(
-    "--eval-trials", {"type": cli.positive_int, "help": "targets of each held-out evaluation"}
+    "--eval-trials", {"type": TARGET_COUNT, "help": "targets of each held-out evaluation"}
 )
 CHECKPOINT_EVERY = Option(
     "--checkpoint-every", {"type": cli.positive_int, "default": 1000, "help": "trials"}

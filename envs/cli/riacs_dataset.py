@@ -12,7 +12,6 @@ Writes ``riacs_dataset.npz`` (arrays ``data``, ``train``, ``test``, columns in t
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import matplotlib
@@ -25,6 +24,7 @@ from matplotlib.figure import Figure
 from envs.cli import common as cli
 from envs.cli import options
 from envs.harness.plots import save_figure
+from envs.harness.run_folder import write_json
 from learners.persistence import save_npz
 from models.analyses import riacs_dataset as D
 from models.riacs import LINK1, LINK2
@@ -108,7 +108,7 @@ def main(argv: list[str] | None = None) -> None:
         "min": data.min(axis=0).tolist(),
         "max": data.max(axis=0).tolist(),
     }
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_json(args.out / "summary.json", summary)
     print(f"build3dpts: step {np.degrees(args.stepsize):.3g}°, loops {sizes} -> {len(data)} rows")
     for c, lo, hi in zip(D.COLUMNS, summary["min"], summary["max"], strict=True):
         print(f"  {c:>7}: [{lo:8.4f}, {hi:8.4f}]")

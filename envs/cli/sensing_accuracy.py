@@ -6,14 +6,13 @@ fraction of the marker that the robot hides.
 
 from __future__ import annotations
 
-import json
-
 import gymnasium as gym
 import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli import options
+from envs.harness.run_folder import write_json
 from envs.reach import REACH_ENV_IDS
 from envs.studies.sensing_accuracy import measure, table
 
@@ -44,7 +43,7 @@ def main(argv: list[str] | None = None) -> dict:
                          f" {r[name + '_max_px']:>7.3f}")  # fmt: skip
             print(line)
     if args.json is not None:
-        args.json.write_text(json.dumps(results, indent=1))
+        write_json(args.json, results)
     return results
 
 

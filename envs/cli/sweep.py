@@ -31,12 +31,20 @@ from envs.studies.sweep_plots import error_vs_neurons
 
 
 def load_spec(path: Path) -> dict:
-    text = path.read_text()
-    if path.suffix in (".yaml", ".yml"):
-        import yaml  # in the extra "sweep"
+    """The grid in the JSON or YAML file ``path``; a file that cannot be read or parsed is a
+    one-line user error."""
+    try:
+        text = path.read_text()
+        if path.suffix in (".yaml", ".yml"):
+            import yaml  # in the extra "sweep"
 
-        return yaml.safe_load(text) or {}
-    return json.loads(text)
+            try:
+                return yaml.safe_load(text) or {}
+            except yaml.YAMLError as exc:
+                raise ValueError(str(exc)) from None
+        return json.loads(text)
+    except (OSError, ValueError) as exc:
+        cli.fail(f"--spec {path}: {exc}")
 
 
 def parse_grid(items: list[str]) -> dict[str, list[str]]:
@@ -44,7 +52,7 @@ def parse_grid(items: list[str]) -> dict[str, list[str]]:
     for item in items:
         axis, sep, values = item.partition("=")
         if not sep or not values:
-            raise SystemExit(f"--grid wants AXIS=V1,V2,..., got {item!r}")
+            cli.fail(f"--grid wants AXIS=V1,V2,..., got {item!r}")
         grid[axis.strip()] = [v.strip() for v in values.split(",")]
     return grid
 
@@ -63,7 +71,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     try:
         configs = expand(grid)
     except (ValueError, TypeError) as exc:
-        raise SystemExit(f"bad grid: {exc}") from None
+        cli.fail(f"bad grid: {exc}")
     rows = run_sweep(
         configs, args.out, args.address, args.num_cpus, args.retries, args.checkpoint_every
     )

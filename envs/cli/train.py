@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> Path:
             "map; leave them out"
         )
 
-    with SignalStop() as stop:
+    with SignalStop() as stop, cli.removed_if_refused(args.out):  # a refused run leaves no folder
         if args.resume:
             if args.force:
                 cli.fail("--force starts a run over; it cannot be combined with --resume")

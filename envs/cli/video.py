@@ -13,6 +13,7 @@ controllers are pose_ik, pose_jacobian or a trained hierarchical map.
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import gymnasium as gym
@@ -30,9 +31,11 @@ from envs.cli.controllers import (
 from envs.grasp import GRASP_ENV_IDS
 from envs.harness.film import VIDEO_FPS, TrialFilm, side_by_side
 from envs.harness.grasp_film import GraspFilm
-from envs.harness.run_folder import check_writable
 from envs.harness.streams import seed_env
 from envs.harness.video import VideoWriter
+
+#: Most trials of a video: each is seconds of film, rendered frame by frame.
+TRIAL_COUNT = cli.count(most=1000, why="each trial is seconds of rendered video")
 
 
 def controller_name(spec: str, controller) -> str:
@@ -47,7 +50,7 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument(
         "--compare", type=controller_spec, help="a second controller on the same targets"
     )
-    options.TRIALS.add(parser, default=4)
+    options.TRIALS.add(parser, default=4, type=TRIAL_COUNT)
     options.FINE_MOVES.add(parser)
     options.SEED.add(parser, default=1)
     options.SENSING.add(parser, default="foveated")
@@ -56,10 +59,19 @@ def main(argv: list[str] | None = None) -> Path:
     parser.add_argument(
         "--speed", type=cli.positive_float, default=1.0, help="simulated s per s of video"
     )
-    options.OUT.add(parser, default=Path("runs/video/eval.mp4"), help="the video file")
-    args = parser.parse_args(argv)
-    check_writable(args.out.parent)  # a read-only folder or a full disk, before any work
+    options.OUT.add(
+        parser, type=cli.out_file, default=Path("runs/video/eval.mp4"), help="the video file (.mp4)"
+    )
+    args = parser.parse_args(argv)  # also finds a read-only folder or a full disk
+    if args.out.suffix != ".mp4":
+        cli.fail(f"--out {args.out}: the video is an mp4; give a name ending in .mp4")
+    with cli.removed_if_refused(args.out.parent):  # a failed video leaves no empty folder
+        write_video(args)
+    return args.out
 
+
+def write_video(args: argparse.Namespace) -> None:
+    """The video of ``main``'s checked arguments, into ``args.out``."""
     specs = [args.controller] + ([args.compare] if args.compare else [])
     check_task(specs, args.env in GRASP_ENV_IDS)
     runs = []  # (env, controller, film) per controller; the same seed gives the same targets
@@ -90,7 +102,6 @@ def main(argv: list[str] | None = None) -> Path:
         env.close()
     seconds = video.frames / args.fps
     print(f"wrote {video.frames} frames ({seconds:.1f} s at {args.fps:g} fps) to {args.out}")
-    return args.out
 
 
 #: Console entry point ``visuomotor-video``.

@@ -21,6 +21,7 @@ from matplotlib.figure import Figure
 
 from envs.harness.evaluation import Evaluation
 from envs.robots import ROBOTS
+from learners.persistence import write_atomic
 
 MOVE_NAMES = ("coarse", "fine 1", "fine 2", "fine 3", "fine 4")
 #: Trials that stopped early (a marker not seen): large black crosses over the coloured points.
@@ -226,12 +227,19 @@ def error_map_figure(result: Evaluation, move: int = 0, *, subject: str) -> Figu
 
 
 def save_figure(fig: Figure, path: Path, dpi: int = 120, bbox_inches: str | None = "tight") -> Path:
-    """Write ``fig`` as an image at ``path`` (folders made as needed), close it, return the path.
+    """Write ``fig`` as an image at ``path`` (folders made as needed; the format from its
+    suffix), atomically (:func:`learners.persistence.write_atomic`: a failed write leaves the
+    old file or none), close it, return the path.
 
     ``bbox_inches="tight"`` crops the image to the drawn content; None keeps the figure's size.
+
+    Raises:
+        OutputError: no space, or a read-only or forbidden folder.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi, bbox_inches=bbox_inches)
-    plt.close(fig)
+    kind = path.suffix.lstrip(".") or None  # None: matplotlib's default, png
+    try:
+        write_atomic(path, lambda f: fig.savefig(f, format=kind, dpi=dpi, bbox_inches=bbox_inches))
+    finally:
+        plt.close(fig)
     return path
