@@ -114,3 +114,14 @@ def test_map_flags_that_do_not_fit_are_one_line_errors(tmp_path):
                        "--out", str(tmp_path / "g"))  # fmt: skip
     assert "--theta-target: the reach map's" in one_line_error(grasp)
     assert not (tmp_path / "g").exists()
+
+
+@pytest.mark.parametrize(
+    ("setting", "value"),
+    [("trials", 2**200), ("eval_every", 10**9), ("eval_trials", 10**7), ("fine_moves", 10**4),
+     ("width", 10**6)],
+)  # fmt: skip
+def test_a_stored_count_beyond_what_fits_in_memory_and_time_is_refused(setting, value):
+    stored = RunConfig().to_stored() | {setting: value}
+    with pytest.raises(ValueError, match=rf"^{setting} is .*; it takes an integer <= "):
+        RunConfig.from_stored(stored)

@@ -18,6 +18,7 @@ from typing import NoReturn, TypeVar
 from tqdm import tqdm
 
 from envs import sizes
+from envs.limits import MAX_COUNT, MAX_ERRORS, MAX_FINE_MOVES, MAX_TARGETS  # noqa: F401
 from models.puma560.grasp import OrientationRange
 
 T = TypeVar("T")
@@ -27,15 +28,6 @@ USAGE_ERROR = 2
 INTERRUPTED = 128 + signal.SIGINT
 #: Longest error message printed (characters); a longer one keeps its start and its end.
 MAX_MESSAGE = 200
-#: Most of any count option: a run of 10^8 steps of even a millisecond takes a day.
-MAX_COUNT = 10**8
-#: Most held-out targets or evaluation trials: their errors after each move are kept in memory,
-#: and 10^6 reach trials take hours.
-MAX_TARGETS = 10**6
-#: Most fine moves after a coarse move (the maps converge within a few; each is a trial step).
-MAX_FINE_MOVES = 1000
-#: Most errors an evaluation keeps (targets x moves): 10^7 float64 are 80 MB per array.
-MAX_ERRORS = 10**7
 
 
 def _help_with_default(action: argparse.Action) -> str:

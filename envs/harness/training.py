@@ -36,14 +36,15 @@ from envs.harness.run_state import CHECKPOINT_EVERY, RunState
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.streams import seed_env
 from envs.harness.trials import learn_from, run_trial
+from envs.limits import MAX_COUNT, MAX_FINE_MOVES, MAX_TARGETS
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.robots import ROBOTS, robot_of_env
 from envs.sizes import check_image_size
-from learners.persistence import CheckpointError
+from learners.persistence import CheckpointError, quoted
 from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
-from learners.som.hierarchical_config import HierarchicalConfig
+from learners.som.hierarchical_config import MAX_IMAGE_SIDE, HierarchicalConfig
 from learners.som.options import (
     from_run_settings,
     run_defaults,
@@ -145,12 +146,17 @@ class RunConfig:
         for name, valid in choices.items():
             if getattr(self, name) not in valid:
                 raise ValueError(f"{name} is {getattr(self, name)!r}; valid: {', '.join(valid)}")
-        least = {"seed": 0, "trials": 1, "eval_every": 1, "eval_trials": 1, "fine_moves": 0,
-                 "width": 1, "height": 1}  # fmt: skip
-        for name, low in least.items():
+        ranges = {"seed": (0, None), "trials": (1, MAX_COUNT), "eval_every": (1, MAX_COUNT),
+                  "eval_trials": (1, MAX_TARGETS), "fine_moves": (0, MAX_FINE_MOVES),
+                  "width": (1, MAX_IMAGE_SIDE), "height": (1, MAX_IMAGE_SIDE)}  # fmt: skip
+        for name, (low, high) in ranges.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"{name} is {value!r}; it takes an integer >= {low}")
+                raise ValueError(f"{name} is {quoted(repr(value))}; it takes an integer >= {low}")
+            if high is not None and value > high:
+                raise ValueError(
+                    f"{name} is {quoted(repr(value))}; it takes an integer <= {high:,}"
+                )
         if not isinstance(self.keep_arm, bool):
             raise ValueError(f"keep_arm is {self.keep_arm!r}, not true or false")
         if self.grasp:

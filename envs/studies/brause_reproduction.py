@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from envs.studies import brause_figures as figures
+from learners.persistence import write_atomic
 from models.analyses import brause_linear_error as B
 from models.analyses import brause_optimal_resolution as RES
 from models.puma560 import DH, WORKSPACE_BASE_LOWER, WORKSPACE_BASE_UPPER
@@ -377,6 +378,7 @@ def reproduce(
         "notes": explanation,
         "som": maps,
     }
-    (out / "brause.json").write_text(json.dumps(result, indent=2))
+    text = json.dumps(result, indent=2).encode()
+    write_atomic(out / "brause.json", lambda f: f.write(text))
     print(f"\nwrote {out}/brause.json and figures")
     return result

@@ -22,6 +22,7 @@ from envs.harness.video import VideoWriter, annotate
 from envs.track import PumaTrackEnv
 from learners import natenet as nn
 from learners.natenet import NATEnet, PathTracker, grid_counts
+from learners.persistence import write_atomic
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -128,7 +129,8 @@ def track_study(args: TrackingStudy, progress: Progress = _silent) -> dict:
     plot_results(args.out, evals, history, grid_history)
     if not args.no_video:
         metrics["video"] = str(write_video(args.out, net, args.gain, int(circle_seeds[0])))
-    (args.out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    text = json.dumps(metrics, indent=2).encode()
+    write_atomic(args.out / "metrics.json", lambda f: f.write(text))
     for env in (train_env, circle_env, line_env):
         env.close()
     print(f"wrote {args.out}")

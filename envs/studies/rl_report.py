@@ -25,6 +25,7 @@ from envs.studies.rl_comparison import (
     steps_to_reach,
     success_key,
 )
+from learners.persistence import write_atomic
 
 LABELS = {
     "map": "visuomotor map",
@@ -151,7 +152,7 @@ def report(folder: Path, targets: int, table_at: list[int] | None = None) -> str
             where = "" if at is None else f", at {at:,} env steps"
             sections.append(f"### {title}{where}\n\n{table(curves, at)}\n")
     text = "\n".join(sections)
-    (folder / "table.md").write_text(text)
+    write_atomic(folder / "table.md", lambda f: f.write(text.encode()))
     return text
 
 
