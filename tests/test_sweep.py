@@ -110,7 +110,7 @@ def test_pose_cells_take_the_pose_maps_lattices_and_count_leaves_as_neurons():
     assert len(set(names)) == 4 and names[1].startswith("grasp_2x2x2_2x2x1_")
 
 
-def test_bad_pose_grids_are_refused_in_one_line_before_anything_runs(tmp_path):
+def test_bad_pose_grids_are_refused_in_one_line_before_anything_runs(tmp_path, capsys):
     with pytest.raises(ValueError, match="orientation_lattice is an axis of the grasp task only"):
         expand({"robot": ["puma", "grasp"], "orientation_lattice": 2})
     with pytest.raises(ValueError, match="rule=local-fit is an option of the reach map"):
@@ -120,8 +120,9 @@ def test_bad_pose_grids_are_refused_in_one_line_before_anything_runs(tmp_path):
     argv = ["--grid", "robot=riacs", "--grid", "orientation_lattice=2", "--out", str(tmp_path)]
     with pytest.raises(SystemExit) as stopped:
         sweep_cli.main(argv)
-    message = str(stopped.value)
-    assert message.startswith("bad grid: orientation_lattice") and "\n" not in message
+    assert stopped.value.code == 2
+    message = capsys.readouterr().err.removesuffix("\n")
+    assert "error: bad grid: orientation_lattice" in message and "\n" not in message
     assert "robot=grasp" in message and "RiacsReach-v0" in message
     assert not any(tmp_path.iterdir())  # nothing ran, nothing written
 
