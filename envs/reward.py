@@ -36,7 +36,9 @@ def goal_distances(goals: GoalPoints, achieved: np.ndarray, desired: np.ndarray)
     ``desired`` (4, N) px: the compiled kernel when numba is installed, else the same
     operations on arrays (the same bits)."""
     if pinhole_kernels.ENABLED:
-        return pinhole_kernels.goal_distances(goals.rows, achieved, desired)
+        out = np.empty(achieved.shape[1])
+        pinhole_kernels.goal_distances(goals.rows, achieved, desired, out)
+        return out
     return distance_elementwise(
         triangulate_elementwise(goals.cameras, achieved),
         triangulate_elementwise(goals.cameras, desired),

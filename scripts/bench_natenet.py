@@ -3,7 +3,9 @@
 The program is :mod:`envs.cli.bench_natenet` (also installed as a console script).
 """
 
-import _startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+import visuomotor_startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+
+# isort: split
 
 from envs.cli.bench_natenet import run
 

@@ -5,7 +5,9 @@ and write plots, a video and camera images.
 The program is :mod:`envs.cli.demo` (also installed as a console script).
 """
 
-import _startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+import visuomotor_startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+
+# isort: split
 
 from envs.cli.demo import run
 

@@ -8,7 +8,9 @@ fine (3.7), learning (3.9)/(3.10), step neighbourhood, one rate) and with the MR
 The program is :mod:`envs.cli.reproduce_brause` (also installed as a console script).
 """
 
-import _startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+import visuomotor_startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+
+# isort: split
 
 from envs.cli.reproduce_brause import run
 

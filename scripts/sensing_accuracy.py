@@ -4,7 +4,9 @@ fraction of the marker that the robot hides.
 The program is :mod:`envs.cli.sensing_accuracy` (also installed as a console script).
 """
 
-import _startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+import visuomotor_startup  # noqa: F401  (first: Ctrl-C while starting is one line, exit 130)
+
+# isort: split
 
 from envs.cli.sensing_accuracy import run
 

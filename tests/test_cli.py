@@ -17,7 +17,9 @@ from learners.persistence import write_atomic
 
 from helpers import SCRIPTS, one_line_error
 
-COMMANDS = sorted(p.stem for p in SCRIPTS.glob("[!_]*.py"))  # _startup.py is no program
+COMMANDS = sorted(
+    p.stem for p in SCRIPTS.glob("[!_]*.py")
+)  # a program's name has no leading underscore
 
 
 def _run(*args: str, **kw) -> subprocess.CompletedProcess:

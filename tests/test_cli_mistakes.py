@@ -141,14 +141,19 @@ def _importing(process: subprocess.Popen) -> bool:
     return False
 
 
-@pytest.mark.parametrize("name", sorted(INTERRUPTED))
-def test_ctrl_c_at_start_up_is_one_line_and_status_130(name, tmp_path):
-    rng = np.random.default_rng(sum(name.encode()))  # the moments
+@pytest.mark.parametrize(
+    ("name", "installed"), [(name, False) for name in sorted(INTERRUPTED)] + [("train", True)]
+)
+def test_ctrl_c_at_start_up_is_one_line_and_status_130(name, installed, tmp_path):
+    """scripts/<name>.py, and the installed command visuomotor-train (its console script)."""
+    rng = np.random.default_rng(sum(name.encode()) + installed)  # the moments
+    program = f"visuomotor-{name}" if installed else f"{name}.py"
+    start = [str(Path(sys.executable).parent / program)] if installed else [
+        sys.executable, str(SCRIPTS / program)]  # fmt: skip
     statuses = []
     for k in range(SIGNALS_PER_PROGRAM):
         out = tmp_path / f"out{k}" / ("v.mp4" if name == "video" else "run")
-        command = [sys.executable, str(SCRIPTS / f"{name}.py"), *INTERRUPTED[name], "--out",
-                   str(out)]  # fmt: skip
+        command = [*start, *INTERRUPTED[name], "--out", str(out)]
         process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                    text=True)  # fmt: skip
         assert _importing(process), process.communicate()
@@ -162,7 +167,7 @@ def test_ctrl_c_at_start_up_is_one_line_and_status_130(name, tmp_path):
         assert "Traceback" not in stderr, stderr[-2000:]
         said = [s for s in stderr.replace("\r", "\n").split("\n")
                 if s.strip() and not any(mark in s for mark in BAR)]  # fmt: skip
-        assert len(said) <= 1 and all(s.startswith(f"{name}.py: interrupted") for s in said), (
+        assert len(said) <= 1 and all(s.startswith(f"{program}: interrupted") for s in said), (
             moment, stderr[-2000:])  # fmt: skip
         statuses.append(process.returncode)
         # Nothing half-written under a final name: no video, no partial; a stopped run keeps

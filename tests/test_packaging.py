@@ -31,8 +31,9 @@ for name in modules:
     files[name] = importlib.import_module(name).__file__
 scripts = {}
 for name, value in json.loads(sys.argv[4]).items():
-    module, function = value.split(":")
-    scripts[name] = callable(getattr(importlib.import_module(module), function, None))
+    module, program = value.split(":")  # visuomotor_startup:<name> starts envs.cli.<name>.run
+    scripts[name] = callable(getattr(importlib.import_module(module), program, None)) and callable(
+        getattr(importlib.import_module("envs.cli." + program), "run", None))
 print(json.dumps({"files": files, "scripts": scripts}))
 """
 
@@ -46,8 +47,11 @@ def _setuptools_version() -> tuple[int, ...]:
 
 
 def _checkout_modules() -> set[str]:
-    """Dotted names of every .py file under the packages' folders of the checkout."""
-    names = set()
+    """Dotted names of every .py file under the packages' folders of the checkout, and the
+    top-level modules pyproject.toml lists (``py-modules``)."""
+    tomllib = pytest.importorskip("tomllib")
+    setuptools = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    names = set(setuptools.get("py-modules", []))
     for package in PACKAGES:
         for path in (ROOT / package).rglob("*.py"):
             parts = path.relative_to(ROOT).with_suffix("").parts
@@ -122,8 +126,8 @@ def test_every_module_imports_from_the_installed_wheel_alone(installed, tmp_path
     assert set(found["files"]) == set(modules)
     outside = {n: f for n, f in found["files"].items() if not Path(f).is_relative_to(installed)}
     assert not outside, f"imported from outside the installed wheel: {outside}"
-    assert found["scripts"] == dict.fromkeys(scripts, True)  # each names a callable ``run``
-    assert all(value.endswith(":run") for value in scripts.values())
+    assert found["scripts"] == dict.fromkeys(scripts, True)  # each starts a callable ``run``
+    assert all(value.startswith("visuomotor_startup:") for value in scripts.values())
 
 
 def test_the_installed_entry_points_are_the_pyproject_scripts(installed):

@@ -318,7 +318,7 @@ def run(main: Callable[[], object]) -> None:
     errors = user_errors()
     try:
         if threading.current_thread() is threading.main_thread():
-            # Ctrl-C raises KeyboardInterrupt from here on (scripts/_startup.py exits before).
+            # Ctrl-C raises KeyboardInterrupt from here on (visuomotor_startup.py exits before).
             signal.signal(signal.SIGINT, signal.default_int_handler)
         main()
     except errors as exc:

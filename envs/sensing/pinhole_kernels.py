@@ -9,6 +9,10 @@ Each computes its numpy reference operation for operation, so the results are th
     goal_distances  :func:`envs.reward.goal_distances` (numpy path)
 ``tests/test_pinhole_kernels.py`` compares them. ``ENABLED`` says whether the env calls them
 (numba imports); tests switch it off to run the numpy paths.
+
+The kernels write into arrays they are given and return nothing or numbers: an array made in a
+kernel is returned through a Python call inside numba's dispatcher, where a Ctrl-C arriving then
+would be raised and lost (numba reports a SystemError instead of the KeyboardInterrupt).
 """
 
 from __future__ import annotations
@@ -25,14 +29,18 @@ ENABLED = available()
 
 @jit
 def sight(
-    projection: np.ndarray, xpos: np.ndarray, ids: np.ndarray, u_max: float, v_max: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Pixels (4M,) [u1, v1, u2, v2 per point] and visibility (2M,) per point and camera of the
-    world points ``xpos[ids]`` (M, 3) m: ``projection`` (4, 6) maps [p, 1] to (d1 u1, d1 v1,
-    d1, d2 u2, d2 v2, d2); a camera sees a point in front of it (d > 0) whose image lies in
-    [0, u_max] × [0, v_max], and its pixels are NaN where it does not."""
-    pixels = np.empty(4 * len(ids))
-    visible = np.empty(2 * len(ids), dtype=np.bool_)
+    projection: np.ndarray,
+    xpos: np.ndarray,
+    ids: np.ndarray,
+    u_max: float,
+    v_max: float,
+    pixels: np.ndarray,
+    visible: np.ndarray,
+) -> None:
+    """Fills ``pixels`` (4M,) [u1, v1, u2, v2 per point] and ``visible`` (2M,) per point and
+    camera for the world points ``xpos[ids]`` (M, 3) m: ``projection`` (4, 6) maps [p, 1] to
+    (d1 u1, d1 v1, d1, d2 u2, d2 v2, d2); a camera sees a point in front of it (d > 0) whose
+    image lies in [0, u_max] × [0, v_max], and its pixels are NaN where it does not."""
     for m in range(len(ids)):
         x, y, z = xpos[ids[m], 0], xpos[ids[m], 1], xpos[ids[m], 2]
         for k in range(2):
@@ -49,7 +57,6 @@ def sight(
             visible[2 * m + k] = seen
             pixels[4 * m + 2 * k] = u if seen else np.nan
             pixels[4 * m + 2 * k + 1] = v if seen else np.nan
-    return pixels, visible
 
 
 @jit
@@ -98,14 +105,14 @@ def triangulate(cameras: np.ndarray, q: np.ndarray, normalized: bool, out: np.nd
 
 
 @jit
-def goal_distances(cameras: np.ndarray, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
-    """Distances (N,) m between the triangulated points of the goals ``achieved`` and
-    ``desired`` (4, N) px; ``cameras`` (2, 16) as
+def goal_distances(
+    cameras: np.ndarray, achieved: np.ndarray, desired: np.ndarray, out: np.ndarray
+) -> None:
+    """Fills ``out`` (N,) m with the distances between the triangulated points of the goals
+    ``achieved`` and ``desired`` (4, N) px; ``cameras`` (2, 16) as
     :func:`envs.sensing.triangulation.camera_array` lays them out."""
-    out = np.empty(achieved.shape[1])
     for j in range(len(out)):
         p = _triangulate(cameras, achieved, j, False)
         q = _triangulate(cameras, desired, j, False)
         dx, dy, dz = p[0] - q[0], p[1] - q[1], p[2] - q[2]
         out[j] = math.sqrt(dx * dx + dy * dy + dz * dz)
-    return out

@@ -120,7 +120,9 @@ def sight(
     (``CameraPair.pixel_projections``). The compiled kernel when numba is installed, else the
     same operations on arrays."""
     if pinhole_kernels.ENABLED:
-        return pinhole_kernels.sight(projection, xpos, ids, u_max, v_max)
+        pixels, visible = np.empty(4 * len(ids)), np.empty(2 * len(ids), dtype=bool)
+        pinhole_kernels.sight(projection, xpos, ids, u_max, v_max, pixels, visible)
+        return pixels, visible
     points = xpos[ids]
     x, y, z = points[:, 0:1], points[:, 1:2], points[:, 2:3]  # (M, 1) each
     h = projection[0] * x + projection[1] * y + projection[2] * z + projection[3]  # (M, 6)
