@@ -11,7 +11,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
 
-from learners.persistence import CheckpointError
+from learners.persistence import CheckpointError, quoted
 from learners.som import stored
 
 #: trials between checkpoints of a run whose checkpoint does not store its interval (written
@@ -27,8 +27,7 @@ SHOWN_CHARS = 30
 
 def shown(value: Any) -> str:
     """``repr(value)``, cut to SHOWN_CHARS characters (a message stays one short line)."""
-    text = repr(value)
-    return text if len(text) <= SHOWN_CHARS else text[: SHOWN_CHARS - 3] + "..."
+    return quoted(repr(value), SHOWN_CHARS)
 
 
 def _count(least: int) -> Callable[[str, Any], None]:

@@ -21,10 +21,13 @@ import math
 
 import numpy as np
 
+from envs.sensing.triangulation import solve_normal_equations
 from learners.compiled import available, jit
 
 #: Whether project sensing and the reach reward call these kernels instead of their numpy paths.
 ENABLED = available()
+#: The numpy path's solve of the normal equations, compiled: one formula for both paths.
+_solve = jit(solve_normal_equations)
 
 
 @jit
@@ -81,18 +84,7 @@ def _triangulate(
             a00, a01, a02 = a00 + n0 * n0, a01 + n0 * n1, a02 + n0 * n2
             a11, a12, a22 = a11 + n1 * n1, a12 + n1 * n2, a22 + n2 * n2
             g0, g1, g2 = g0 + n0 * offset, g1 + n1 * offset, g2 + n2 * offset
-    c00 = a11 * a22 - a12 * a12
-    c01 = a02 * a12 - a01 * a22
-    c02 = a01 * a12 - a02 * a11
-    c11 = a00 * a22 - a02 * a02
-    c12 = a01 * a02 - a00 * a12
-    c22 = a00 * a11 - a01 * a01
-    det = a00 * c00 + a01 * c01 + a02 * c02
-    return (
-        (c00 * g0 + c01 * g1 + c02 * g2) / det,
-        (c01 * g0 + c11 * g1 + c12 * g2) / det,
-        (c02 * g0 + c12 * g1 + c22 * g2) / det,
-    )
+    return _solve(a00, a01, a02, a11, a12, a22, g0, g1, g2)
 
 
 @jit

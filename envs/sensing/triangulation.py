@@ -72,6 +72,22 @@ def triangulate_elementwise(
             a00, a01, a02 = a00 + n0 * n0, a01 + n0 * n1, a02 + n0 * n2
             a11, a12, a22 = a11 + n1 * n1, a12 + n1 * n2, a22 + n2 * n2
             g0, g1, g2 = g0 + n0 * offset, g1 + n1 * offset, g2 + n2 * offset
+    return solve_normal_equations(a00, a01, a02, a11, a12, a22, g0, g1, g2)
+
+
+def solve_normal_equations(
+    a00: Number,
+    a01: Number,
+    a02: Number,
+    a11: Number,
+    a12: Number,
+    a22: Number,
+    g0: Number,
+    g1: Number,
+    g2: Number,
+) -> tuple[Number, Number, Number]:
+    """p = A⁻¹ g for the symmetric A (its upper triangle a_ij) by the adjugate, term by term
+    (floats or arrays; the compiled triangulation calls this same function)."""  # fmt: skip
     c00 = a11 * a22 - a12 * a12
     c01 = a02 * a12 - a01 * a22
     c02 = a01 * a12 - a02 * a11
