@@ -301,7 +301,7 @@ class ReachEnv(ArmScene):
         if options.get("keep_arm", False):
             self.data.qvel[:] = 0.0
         else:
-            mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
+            self.restore_start()
         self.data.mocap_pos[self.target_mocap_id] = target
         if orientation is not None:
             self.data.mocap_quat[self.target_mocap_id] = orientation
@@ -391,7 +391,8 @@ class ReachEnv(ArmScene):
     def _reward(self, observation: dict[str, np.ndarray], info: dict[str, Any]) -> float:
         """The reward of a transition; puts its terms into ``info``."""
         terms = self._reward_terms(observation["achieved_goal"], observation["desired_goal"], info)
-        info.update(zip(self.REWARD_TERMS, terms, strict=True))
+        for key, term in zip(self.REWARD_TERMS, terms, strict=True):
+            info[key] = term
         total = terms[0]
         for term in terms[1:]:
             total = total + term
@@ -419,7 +420,7 @@ class ReachEnv(ArmScene):
         """The next target's world position (3,) m and orientation (a unit quaternion (4,), or
         None to leave the mocap body's), drawn with ``np_random``: a point uniform in the
         robot's workspace, moved with the base."""
-        target = self.spec_robot.workspace.sample(self.np_random, 1)[0]
+        target = self.spec_robot.workspace.sample_one(self.np_random)
         return target + self.perturbation.base_shift, None
 
     def close(self) -> None:
@@ -696,18 +697,16 @@ class ReachEnv(ArmScene):
         effector = self.sensed_point()
         distance = math.dist(target.tolist(), effector.tolist())
         du_dv = (self._last["effector"] - self._last["target"]).tolist()
-        image_errors = [math.hypot(du, dv) for du, dv in zip(du_dv[::2], du_dv[1::2], strict=True)]
+        image_errors = list(map(math.hypot, du_dv[::2], du_dv[1::2]))  # per camera and marker
         return StepInfo(
-            {
-                "distance": distance,
-                "pixel_error": sum(image_errors) / len(image_errors),
-                "is_success": distance < self.success_threshold,
-                "visible": all(self._visible_target.tolist() + self._visible_effector.tolist()),
-                "visible_target": self._visible_target.copy(),
-                "visible_effector": self._visible_effector.copy(),
-                "target_pos": target,
-                "effector_pos": effector,
-                "clipped": clipped,
-                "settle_time": settle_time,
-            }
+            distance=distance,
+            pixel_error=sum(image_errors) / len(image_errors),
+            is_success=distance < self.success_threshold,
+            visible=all(self._visible_target.tolist() + self._visible_effector.tolist()),
+            visible_target=self._visible_target.copy(),
+            visible_effector=self._visible_effector.copy(),
+            target_pos=target,
+            effector_pos=effector,
+            clipped=clipped,
+            settle_time=settle_time,
         )

@@ -63,7 +63,7 @@ def seen_flags(info: Any, shape: tuple[int, ...]) -> bool | np.ndarray:
     (every marker seen). A bool for ``shape == ()``, else a bool array of ``shape``."""
     if info is None:
         return True if shape == () else np.ones(shape, dtype=bool)
-    if isinstance(info, Mapping):
+    if isinstance(info, dict) or isinstance(info, Mapping):  # dict first: the ABC test is slow
         seen = _seen(info)
         return seen if shape == () else np.full(shape, seen)
     items = np.asarray(info, dtype=object)  # dicts are not sequences: one item per dict

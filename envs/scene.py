@@ -27,6 +27,9 @@ IMAGE_WIDTH, IMAGE_HEIGHT = 320, 240
 #: Geom group that no camera or viewer of the project draws: markers of other joint options,
 #: and the geoms of the robot's other tasks (:attr:`RobotSpec.task_geoms`).
 HIDDEN_GROUP = 5
+#: The state a reset restores: what ``mj_step`` reads (time, positions, velocities, controls,
+#: mocap poses, warm start, ...), MuJoCo's documented integration state.
+INTEGRATION_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
 class ArmScene(gym.Env):
@@ -73,6 +76,8 @@ class ArmScene(gym.Env):
         self._marker_radius = float(self.model.geom_size[self._effector_geoms[0]][0])  # m
         self._target_radius = float(self.model.geom_size[self._target_geoms[0]][0])  # m
         mujoco.mj_resetDataKeyframe(self.model, self.data, self._home)
+        self._start_state = np.empty(mujoco.mj_stateSize(self.model, INTEGRATION_STATE))
+        mujoco.mj_getState(self.model, self.data, self._start_state, INTEGRATION_STATE)
         mujoco.mj_forward(self.model, self.data)
         self.stereo = StereoRig(self.model, self.data, height, width)
         self._fovea: FoveatedSensing | None = None
@@ -85,6 +90,12 @@ class ArmScene(gym.Env):
         episode after this."""
         super().reset(seed=seed)
         self._was_reset = True
+
+    def restore_start(self) -> None:
+        """Put the simulation back where ``mj_resetDataKeyframe`` of the start keyframe puts it:
+        its integration state (``mjSTATE_INTEGRATION``, everything ``mj_step`` reads), in one
+        copy; positions and the other derived quantities follow at the next forward pass."""
+        mujoco.mj_setState(self.model, self.data, self._start_state, INTEGRATION_STATE)
 
     def require_reset(self) -> None:
         """Raise ``gymnasium.error.ResetNeeded`` (what Gymnasium's ``OrderEnforcing`` wrapper

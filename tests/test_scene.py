@@ -168,3 +168,40 @@ def test_an_env_with_its_sensor_survives_pickling():
     assert copy.sensor.stereo is copy.stereo  # the copy senses through its own rig
     env.close()
     copy.close()
+
+
+@pytest.mark.parametrize("env_id", ["RiacsReach-v0", "PumaReach-v0", "PumaGrasp-v0"])
+def test_restore_start_is_mujocos_keyframe_reset(env_id):
+    """After servo moves, ``restore_start`` leaves what ``mj_resetDataKeyframe`` leaves (the
+    reference): the same full state, the same positions after a forward pass, and the same
+    trajectory for 300 physics steps under one command."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, sensing="project", control="servo").unwrapped
+    env.reset(seed=4)
+    rng = np.random.default_rng(4)
+    for _ in range(2):
+        env.step(rng.uniform(env.action_space.low, env.action_space.high))
+    model, restored = env.model, env.data
+    reference = mujoco.MjData(model)
+    mujoco.mj_copyData(reference, model, restored)  # the same stale derived quantities
+    env.restore_start()
+    mujoco.mj_resetDataKeyframe(model, reference, model.key(env.markers.start_key).id)
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    states = []
+    for data in (restored, reference):
+        state = np.empty(mujoco.mj_stateSize(model, spec))
+        mujoco.mj_getState(model, data, state, spec)
+        states.append(state)
+    np.testing.assert_array_equal(states[0], states[1])
+    command = rng.uniform(model.actuator_ctrlrange[:, 0], model.actuator_ctrlrange[:, 1])
+    for data in (restored, reference):
+        mujoco.mj_forward(model, data)
+        data.ctrl[:] = command
+        for _ in range(300):
+            mujoco.mj_step(model, data)
+    assert restored.time == reference.time > 0
+    np.testing.assert_array_equal(restored.qpos, reference.qpos)
+    np.testing.assert_array_equal(restored.qvel, reference.qvel)
+    np.testing.assert_array_equal(restored.geom_xpos, reference.geom_xpos)
+    env.close()
