@@ -37,7 +37,13 @@ from envs.harness.run_state import CHECKPOINT_EVERY, RunState
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.streams import seed_env
 from envs.harness.trials import Trial, learn_from, run_trial
-from envs.harness.workers import ROUND_TRIALS, InProcessPool, WorkerPool, round_end
+from envs.harness.workers import (
+    ROUND_TRIALS,
+    Collected,
+    InProcessPool,
+    WorkerPool,
+    round_end,
+)
 from envs.limits import MAX_COUNT, MAX_FINE_MOVES, MAX_TARGETS, MAX_WORKERS
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.robots import ROBOTS, robot_of_env
@@ -412,6 +418,7 @@ class Trainer:
         self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}
         self.checkpoint_every = CHECKPOINT_EVERY
         self.pool: WorkerPool | InProcessPool | None = None  # the workers, from the first round
+        self.spent: Collected | None = None  # what the workers spent, kept when they are closed
         self.learner_seconds = 0.0  # spent learning from the workers' trials
 
     # -- checkpoints ---------------------------------------------------------------------------
@@ -589,6 +596,7 @@ class Trainer:
         config = self.config
         if self.pool is None:
             self.pool = self.make_pool(config, config.workers)
+            self.spent = self.pool.spent
         pairs = config.training_pairs or 1
         end = round_end(self.trial, config.trials, config.eval_every, self.round_trials)
         trials = self.pool.collect(self.som, self.trial, end, pairs, check)
@@ -635,6 +643,6 @@ class Trainer:
     def close(self) -> None:
         if self.pool is not None:
             self.pool.close()
-            self.pool = None
+            self.spent, self.pool = self.pool.spent, None
         self.env.close()
         self.folder.release()

@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import itertools
 import multiprocessing
+import multiprocessing.connection
 import os
 import pickle
 import signal
+import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -84,12 +86,22 @@ _ENV: Any = None  # a worker's env, built by _start_worker
 
 def _start_worker(config: Any) -> None:
     """In a new worker: ignore SIGINT (a Ctrl-C at the terminal reaches the whole process group;
-    the learner stops the run between rounds) and build the run's env."""
+    the learner stops the run between rounds), end with the learner (a learner killed by
+    SIGKILL leaves no worker behind) and build the run's env."""
     global _ENV
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        threading.Thread(target=_exit_with, args=(parent.sentinel,), daemon=True).start()
     import envs  # noqa: F401  (registers the envs in this process)
 
     _ENV = config.make_env()
+
+
+def _exit_with(sentinel: int) -> None:
+    """Wait until the process of ``sentinel`` has ended, then end this one."""
+    multiprocessing.connection.wait([sentinel])
+    os._exit(0)
 
 
 def _collect_in_worker(
