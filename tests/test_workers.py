@@ -104,7 +104,7 @@ def _rounds_by_hand(config):
             env.unwrapped.np_random, frozen.rng = trial_rngs(config.seed, k)
             collected.append(run_trial(env, frozen, fine_moves=1, explore=True))
         for t in collected:
-            learn_from(som, t, 1)
+            learn_from(som, t, 1, stale=True)
         trial = end
     env.close()
     return som
@@ -180,3 +180,43 @@ def test_a_run_of_one_worker_stores_no_workers_entry():
     assert "workers" not in RunConfig().to_stored()
     assert RunConfig(workers=2).to_stored()["workers"] == 2
     assert RunConfig.from_stored(RunConfig(workers=2).to_stored()).workers == 2
+
+
+def _map(**options):
+    from learners.som.controller import VisuomotorSOM
+
+    lower, upper = np.array([-1.0, -1.0, -1.0]), np.array([1.0, 1.0, 1.0])
+    return VisuomotorSOM(lower, upper, rng=7, lattice=(3, 3, 2), t_max=100, **options)
+
+
+def test_a_stale_trial_moves_the_coarse_target_by_what_its_command_missed():
+    """learn_stale = learn with θ* moved by θ0 − the map's command now: the winner's θ moves by
+    ε' (θ0 − θ0_now) more than learn moves it (h = 1 at the winner); a θ0 that is the map's
+    command now learns exactly as learn does; the fine-error target is learn's."""
+    u, v0, v1 = (
+        np.array([0.5, 0.4, 0.6, 0.5]),
+        np.array([0.45, 0.42, 0.55, 0.5]),
+        np.array([0.52, 0.38, 0.61, 0.47]),
+    )
+    plain, stale = _map(kernel="numpy"), _map(kernel="numpy")
+    now = plain.act_batch(u[None])[0]
+    theta0 = now + np.array([0.05, -0.02, 0.03])
+    theta1 = theta0 + np.array([0.01, 0.02, -0.01])
+    s = plain.winner(u)
+    before = plain.theta[s].copy()
+    eps_out = plain.params()[2]
+    assert plain.learn(u, theta0, v0, theta1, v1) and stale.learn_stale(u, theta0, v0, theta1, v1)
+    moved_more = (stale.theta[s] - before) - (plain.theta[s] - before)
+    np.testing.assert_allclose(moved_more, eps_out * (theta0 - now), rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(stale.A, plain.A)
+    np.testing.assert_array_equal(stale.w, plain.w)
+
+    same, reference = _map(kernel="numpy"), _map(kernel="numpy")
+    same.learn_stale(u, now, v0, theta1, v1)
+    reference.learn(u, now, v0, theta1, v1)
+    np.testing.assert_array_equal(same.theta, reference.theta)
+
+    fine, fine_reference = _map(theta_target="fine-error"), _map(theta_target="fine-error")
+    fine.learn_stale(u, theta0, v0, theta1, v1)
+    fine_reference.learn(u, theta0, v0, theta1, v1)
+    np.testing.assert_allclose(fine.theta, fine_reference.theta, rtol=1e-12, atol=1e-15)

@@ -602,7 +602,7 @@ class Trainer:
         trials = self.pool.collect(self.som, self.trial, end, pairs, check)
         start = time.perf_counter()
         for trial in trials:
-            self._learn(trial, pairs)
+            self._learn(trial, pairs, stale=True)
         self.learner_seconds += time.perf_counter() - start
 
     #: Trials of a round with workers (a constant of the code: a checkpoint does not store it).
@@ -611,9 +611,10 @@ class Trainer:
     #: same rounds in this process, for measurements and tests).
     make_pool: Callable[[RunConfig, int], WorkerPool | InProcessPool] = WorkerPool
 
-    def _learn(self, trial: Trial, pairs: int) -> None:
-        """Learn from ``trial`` (``pairs`` pairs of its moves) and count it."""
-        learn_from(self.som, trial, pairs)
+    def _learn(self, trial: Trial, pairs: int, stale: bool = False) -> None:
+        """Learn from ``trial`` (``pairs`` pairs of its moves; ``stale``: the map of a round's
+        start made its moves) and count it."""
+        learn_from(self.som, trial, pairs, stale)
         self.trial += 1
         for key, k in (("coarse_mm", 0), ("fine_mm", 1)):
             if len(trial.distances) > k:

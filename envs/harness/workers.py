@@ -116,11 +116,12 @@ def _collect_in_worker(
 @dataclass
 class Collected:
     """What the workers spent: seconds of trials summed over the workers, trials run, restarts
-    after a worker died."""
+    after a worker died; and the learner's seconds spent sending them its map."""
 
     worker_seconds: float = 0.0
     trials: int = 0
     restarts: int = 0
+    send_seconds: float = 0.0  # the learner's: pickling its map for the workers
 
 
 class WorkerPool:
@@ -151,7 +152,9 @@ class WorkerPool:
         Raises:
             WorkerError: the workers died MAX_RESTARTS + 1 times in this round.
         """
+        start = time.perf_counter()
         blob = pickle.dumps(som)
+        self.spent.send_seconds += time.perf_counter() - start
         parts = shares(first, end, self.workers)
         for _attempt in range(MAX_RESTARTS + 1):
             try:
@@ -193,7 +196,10 @@ class InProcessPool:
     def collect(
         self, som: Any, first: int, end: int, pairs: int, check: Callable[[], None]
     ) -> list[Trial]:
-        copy = pickle.loads(pickle.dumps(som))  # as a worker gets it
+        start = time.perf_counter()
+        blob = pickle.dumps(som)
+        self.spent.send_seconds += time.perf_counter() - start
+        copy = pickle.loads(blob)  # as a worker gets it
         start = time.perf_counter()
         trials = [
             trial
