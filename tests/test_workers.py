@@ -170,6 +170,9 @@ def test_keep_arm_with_workers_is_refused_in_one_line(tmp_path, capsys):
     with pytest.raises(ValueError, match="keep_arm") as refused:
         RunConfig(keep_arm=True, workers=2)
     assert "\n" not in str(refused.value)
+    with pytest.raises(ValueError, match="reach maps only") as refused:
+        RunConfig(env="PumaGrasp-v0", workers=2)
+    assert "\n" not in str(refused.value)
     for bad in (0, MAX_WORKERS + 1, 2.0, True):
         with pytest.raises(ValueError, match="workers"):
             RunConfig(workers=bad)

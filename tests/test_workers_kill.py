@@ -14,8 +14,9 @@ import time
 import numpy as np
 from test_kill import SOAK, _command, _contents, _env, _working
 
-#: Projection and servo moves: a round of 64 trials takes a few tenths of a second.
-OPTIONS = ["--workers", "2", "--control", "servo", "--trials", "512", "--eval-every", "256",
+#: Projection and servo moves, a held-out evaluation every 128 trials: rounds of 128 trials, a few
+#: tenths of a second each.
+OPTIONS = ["--workers", "2", "--control", "servo", "--trials", "512", "--eval-every", "128",
            "--eval-trials", "10"]  # fmt: skip
 SIGNALS = 30 if SOAK else 3
 #: SIGKILL twice as often as each stop signal: it leaves the workers without their learner.

@@ -23,8 +23,9 @@ run keeps its own --checkpoint-every unless it is given again.
 --workers N (N >= 2) runs the trials in N worker processes, each with its own env, in rounds: the
 workers run a round's trials with the map of its start, the learner learns them in order. Trial
 k's target and exploration come from (seed, k), so the map is the same for every N >= 2 and after
-a kill; a worker that dies is started again and its round redone. --workers 1 (the default) is
-the one-process training, trial after trial.
+a kill; a worker that dies is started again and its round redone, and Ctrl-C abandons the
+round (redone on --resume). --workers 1 (the default) is the one-process training, trial after
+trial.
 """
 
 from __future__ import annotations

@@ -176,6 +176,11 @@ class RunConfig:
                 f"keep_arm starts a trial where the last ended, which {self.workers} workers "
                 "running trials side by side cannot; leave out keep_arm or take 1 worker"
             )
+        if self.grasp and self.workers > 1:
+            raise ValueError(
+                f"workers > 1 trains the reach maps only: {self.env}'s hierarchical map cannot "
+                "yet learn from trials an earlier copy of it made; take 1 worker"
+            )
         if self.grasp:
             spelled = WIDE if self.orientations is None else self.orientations
             object.__setattr__(self, "orientations", OrientationRange.parse(spelled).spec())
@@ -542,8 +547,9 @@ class Trainer:
         run's own interval; a new one is stored with the run) and at the end.
 
         SIGINT and SIGTERM (noted by ``stop``, or by a :class:`SignalStop` installed here) let
-        the current trial finish, abandon a held-out evaluation (redone on resume), save and
-        raise :class:`StopRequested`. Any other exception leaves the last checkpoint as it is.
+        the current trial finish, abandon a held-out evaluation or a round of the workers
+        (redone on resume), save and raise :class:`StopRequested`. Any other exception leaves
+        the last checkpoint as it is.
         """
         if checkpoint_every is not None:
             self.checkpoint_every = _interval(checkpoint_every)
@@ -592,7 +598,8 @@ class Trainer:
     def train_round(self, check: Callable[[], None] = lambda: None) -> None:
         """One round (``envs.harness.workers.round_end``): its trials collected by the
         workers with the map as it is now, then learned in their order. ``check`` is called
-        before workers that died are started again (it may raise to stop instead)."""
+        while the workers run (it may raise to abandon the round, which leaves the map as it
+        was: a resumed run redoes the round)."""
         config = self.config
         if self.pool is None:
             self.pool = self.make_pool(config, config.workers)

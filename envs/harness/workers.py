@@ -24,7 +24,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
@@ -35,9 +35,11 @@ from envs.harness.trials import Trial, run_trial
 
 #: Trials of a round: the staleness of a worker's map, in trials, at the end of a round. Chosen
 #: by measuring the held-out errors against the round size (docs/decisions.md, "Workers").
-ROUND_TRIALS = 64
+ROUND_TRIALS = 256
 #: Restarts of the workers within one round before the run gives up.
 MAX_RESTARTS = 3
+#: s between the learner's checks for a stop signal while the workers run a round.
+POLL_SECONDS = 0.05
 
 
 class WorkerError(RuntimeError):
@@ -147,7 +149,8 @@ class WorkerPool:
         self, som: Any, first: int, end: int, pairs: int, check: Callable[[], None]
     ) -> list[Trial]:
         """Trials first .. end - 1 run with (a copy of) ``som``, in order. ``check`` is called
-        before a restart (it may raise to stop the run instead).
+        every POLL_SECONDS while the workers run and before a restart: it may raise to abandon
+        the round (it is redone when the run resumes; :meth:`close` ends the workers).
 
         Raises:
             WorkerError: the workers died MAX_RESTARTS + 1 times in this round.
@@ -162,6 +165,11 @@ class WorkerPool:
                     self._executor.submit(_collect_in_worker, blob, self.config.seed, part, pairs)
                     for part in parts
                 ]
+                while not all(f.done() for f in futures):
+                    wait(futures, timeout=POLL_SECONDS, return_when=FIRST_EXCEPTION)
+                    check()
+                    if any(f.done() and f.exception() is not None for f in futures):
+                        break
                 results = [f.result() for f in futures]
             except BrokenProcessPool:
                 check()
@@ -179,6 +187,11 @@ class WorkerPool:
         )
 
     def close(self) -> None:
+        """End the workers, also in the middle of a round (abandoned: a stopped run redoes it
+        when it resumes)."""
+        processes = getattr(self._executor, "_processes", None) or {}  # the executor's own
+        for process in list(processes.values()):
+            process.terminate()
         self._executor.shutdown(wait=True, cancel_futures=True)
 
 
