@@ -63,6 +63,18 @@ def test_shares_and_rounds_cover_every_trial_once():
     assert ends == wanted
 
 
+def test_the_trials_generators_are_none_of_the_streams():
+    """Trial k's two generators against the training, held-out and validation streams (and
+    each other): no two draw the same numbers."""
+    from envs.harness.streams import STREAMS, generator
+
+    for seed in (0, 5):
+        draws = [tuple(generator(seed, stream).random(4)) for stream in STREAMS]
+        for k in (0, 1, 2, 1000):
+            draws += [tuple(g.random(4)) for g in trial_rngs(seed, k)]
+        assert len(set(draws)) == len(draws)
+
+
 def test_one_worker_is_the_one_process_training_bit_for_bit(tmp_path):
     """train.py --workers 1 writes the checkpoint of train.py without the flag, and both are a
     loop of run_trial and learn_from written out here."""

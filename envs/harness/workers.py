@@ -40,6 +40,9 @@ ROUND_TRIALS = 256
 MAX_RESTARTS = 3
 #: s between the learner's checks for a stop signal while the workers run a round.
 POLL_SECONDS = 0.05
+#: The first spawn key of the training trials' generators with workers (the streams of
+#: ``envs.harness.streams`` take (), (1,) and (2,)).
+TRIALS_KEY = 3
 
 
 class WorkerError(RuntimeError):
@@ -48,9 +51,14 @@ class WorkerError(RuntimeError):
 
 def trial_rngs(seed: int, k: int) -> tuple[np.random.Generator, np.random.Generator]:
     """The generators of training trial k (0-based) of a run of ``seed`` with workers: the env's
-    (the target) and the map's (the exploratory moves), children of ``SeedSequence([seed, k])``
-    (whose entropy is never that of the streams of ``envs.harness.streams``, the seed alone)."""
-    env_seq, map_seq = np.random.SeedSequence([seed, k]).spawn(2)
+    (the target) and the map's (the exploratory moves), ``SeedSequence(seed)`` with the spawn
+    keys (TRIALS_KEY, k, 0) and (TRIALS_KEY, k, 1): beside the streams of
+    ``envs.harness.streams`` (keys (), (1,), (2,)), never one of them. (``SeedSequence([seed,
+    k])`` is not: a trailing 0 word mixes like no word, so its child 1 for k = 0 would be the
+    held-out stream.)"""
+    env_seq, map_seq = (
+        np.random.SeedSequence(seed, spawn_key=(TRIALS_KEY, k, child)) for child in (0, 1)
+    )
     return np.random.default_rng(env_seq), np.random.default_rng(map_seq)
 
 
