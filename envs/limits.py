@@ -11,3 +11,6 @@ MAX_TARGETS = 10**6
 MAX_FINE_MOVES = 1000
 #: Most errors an evaluation keeps (targets x moves): 10^7 float64 are 80 MB per array.
 MAX_ERRORS = 10**7
+#: Most worker processes of a training run (``train.py --workers``): each holds an env, its
+#: renderer and a copy of the map (tens of MB), and a round is cut into one share per worker.
+MAX_WORKERS = 256

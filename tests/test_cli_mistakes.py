@@ -28,6 +28,7 @@ PROGRAMS: dict[str, tuple[list[str], tuple[str, str] | None, list[str]]] = {
     "adapt": ([], ("--out", "folder"), ["--eval-trials", "--after", "--video-trials"]),
     "bench_natenet": ([], ("--out", "folder"), ["--nodes", "--queries"]),
     "bench_som": ([], ("--out", "folder"), ["--trials", "--batch"]),
+    "bench_workers": ([], ("--out", "folder"), ["--trials", "--targets"]),
     "compare_rl": ([], ("--out", "folder"), ["--budget", "--targets"]),
     "docs_media": ([], ("--out", "folder"), ["--trials"]),
     "grasp_learning": ([], ("--out", "file"), ["--targets", "--fine-moves"]),

@@ -19,6 +19,13 @@ continues exactly as if the run had never stopped, also after a kill or a power 
 process at a time may write to OUT; a fresh run refuses a folder that holds a run unless
 --force. On --resume only --trials (to extend the run) and --checkpoint-every may change; the
 run keeps its own --checkpoint-every unless it is given again.
+
+--workers N (N >= 2) runs the trials in N worker processes, each with its own env, in rounds: the
+workers run a round's trials with the map of its start, the learner learns them in order. Trial
+k's target and exploration come from (seed, k), so the map is the same for every N >= 2 and after
+a kill; a worker that dies is started again and its round redone, and Ctrl-C abandons the
+round (redone on --resume). --workers 1 (the default) is the one-process training, trial after
+trial.
 """
 
 from __future__ import annotations
@@ -47,6 +54,8 @@ from envs.harness.training import (
     RunConfig,
     Trainer,
 )
+from envs.harness.workers import ROUND_TRIALS
+from envs.limits import MAX_WORKERS
 from learners.persistence import writing
 from learners.som.config import RENAMED, SOMConfig
 from learners.som.hierarchical_config import HierarchicalConfig
@@ -108,6 +117,11 @@ def main(argv: list[str] | None = None) -> Path:
     options.CONTROL.add(p, default=d.control, note=options.run_setting_note("control"))
     options.IMAGE_SIZE.add(p, default=sizes.format_size(d.width, d.height))
     p.add_argument("--keep-arm", action="store_true", help="start each trial where the last ended")
+    p.add_argument("--workers", type=cli.count(1, MAX_WORKERS, "processes, each with an env"),
+                   default=d.workers,
+                   help=f"collect the trials in {ROUND_TRIALS}-trial rounds with this many worker "
+                   "processes, one learner learning them in order (default 1: one process, trial "
+                   "after trial); the map depends on the seed, not on N >= 2")  # fmt: skip
     cli.add_count(p, "--eval-every", d.eval_every, "trials")
     options.EVAL_TRIALS.add(p, default=d.eval_trials)
     options.CHECKPOINT_EVERY.add(p)
@@ -122,6 +136,11 @@ def main(argv: list[str] | None = None) -> Path:
             name = "--" + flag.replace("_", "-")
             cli.fail(f"{name} is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
     given = cli.given_options(p, argv)
+    if args.keep_arm and args.workers > 1:
+        cli.fail(
+            f"--keep-arm starts a trial where the last ended, which {args.workers} workers "
+            "running trials side by side cannot; leave out --keep-arm or --workers"
+        )
     reach_only = sorted(d for d in given if d in _REACH_FLAGS)
     if grasp_env and reach_only and not args.resume:
         flags = ", ".join("--" + d.replace("_", "-") for d in reach_only)
@@ -148,7 +167,7 @@ def main(argv: list[str] | None = None) -> Path:
         else:
             config = checked(
                 env=args.env, sensing=args.sensing, control=args.control, seed=args.seed,
-                trials=args.trials, keep_arm=args.keep_arm,
+                trials=args.trials, keep_arm=args.keep_arm, workers=args.workers,
                 width=args.image_size[0], height=args.image_size[1],
                 eval_every=args.eval_every, eval_trials=args.eval_trials,
                 orientations=args.orientations if grasp_env else None,

@@ -6,6 +6,7 @@ a power cut, ``Trainer.resume`` gives the arrays, generator states and metrics o
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
@@ -35,8 +36,15 @@ from envs.harness.run_folder import METRICS_FILE, RunFolder, check_metrics, trun
 from envs.harness.run_state import CHECKPOINT_EVERY, RunState
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.streams import seed_env
-from envs.harness.trials import learn_from, run_trial
-from envs.limits import MAX_COUNT, MAX_FINE_MOVES, MAX_TARGETS
+from envs.harness.trials import Trial, learn_from, run_trial
+from envs.harness.workers import (
+    ROUND_TRIALS,
+    Collected,
+    InProcessPool,
+    WorkerPool,
+    round_end,
+)
+from envs.limits import MAX_COUNT, MAX_FINE_MOVES, MAX_TARGETS, MAX_WORKERS
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.robots import ROBOTS, robot_of_env
 from envs.sizes import check_image_size
@@ -84,7 +92,7 @@ ADDED_LATER = {
     for kind in (SOMConfig, HierarchicalConfig)
     for f in run_options(kind)
     if f.metadata.get("omit_default")
-} | {"orientations": None, "training_pairs": None}
+} | {"orientations": None, "training_pairs": None, "workers": 1}
 #: The objects' orientations of a grasp run stored before runs recorded them (the 30° ball) ...
 FIRST_ORIENTATIONS = NARROW.spec()
 #: ... and its training pairs (one: the coarse and one fine move, learned once).
@@ -135,6 +143,9 @@ class RunConfig:
     #: grasp envs only: fine moves of a training trial, each learned after the one before it
     #: (``learn_from(..., pairs)``; None: TRAINING_PAIRS)
     training_pairs: int | None = None
+    #: trials collected by this many worker processes in rounds (``envs.harness.workers``);
+    #: 1: one process, trial after trial
+    workers: int = 1
     #: the map's options (None: its config's defaults; the constructor sets the checked config)
     map: MapConfig = None  # type: ignore[assignment]
 
@@ -148,7 +159,8 @@ class RunConfig:
                 raise ValueError(f"{name} is {getattr(self, name)!r}; valid: {', '.join(valid)}")
         ranges = {"seed": (0, None), "trials": (1, MAX_COUNT), "eval_every": (1, MAX_COUNT),
                   "eval_trials": (1, MAX_TARGETS), "fine_moves": (0, MAX_FINE_MOVES),
-                  "width": (1, MAX_IMAGE_SIDE), "height": (1, MAX_IMAGE_SIDE)}  # fmt: skip
+                  "width": (1, MAX_IMAGE_SIDE), "height": (1, MAX_IMAGE_SIDE),
+                  "workers": (1, MAX_WORKERS)}  # fmt: skip
         for name, (low, high) in ranges.items():
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
@@ -159,6 +171,16 @@ class RunConfig:
                 )
         if not isinstance(self.keep_arm, bool):
             raise ValueError(f"keep_arm is {self.keep_arm!r}, not true or false")
+        if self.keep_arm and self.workers > 1:
+            raise ValueError(
+                f"keep_arm starts a trial where the last ended, which {self.workers} workers "
+                "running trials side by side cannot; leave out keep_arm or take 1 worker"
+            )
+        if self.grasp and self.workers > 1:
+            raise ValueError(
+                f"workers > 1 trains the reach maps only: {self.env}'s hierarchical map cannot "
+                "yet learn from trials an earlier copy of it made; take 1 worker"
+            )
         if self.grasp:
             spelled = WIDE if self.orientations is None else self.orientations
             object.__setattr__(self, "orientations", OrientationRange.parse(spelled).spec())
@@ -358,7 +380,9 @@ def _interval(checkpoint_every: int) -> int:
 
 
 class Trainer:
-    """Runs ``config.trials`` training trials, evaluating every ``eval_every`` trials.
+    """Runs ``config.trials`` training trials, evaluating every ``eval_every`` trials; with
+    ``config.workers`` >= 2 in rounds of ROUND_TRIALS trials collected by that many worker
+    processes (``envs.harness.workers``), each round learned in the order of its trials.
 
     The folder ``out`` is locked while the trainer exists (``close()`` releases it) and holds
     the checkpoint unit (``checkpoint.npz``: map, trainer state, simulation state, env generator,
@@ -398,6 +422,9 @@ class Trainer:
         self.trial, self.metrics_rows, self.pending_eval = 0, 0, False
         self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}
         self.checkpoint_every = CHECKPOINT_EVERY
+        self.pool: WorkerPool | InProcessPool | None = None  # the workers, from the first round
+        self.spent: Collected | None = None  # what the workers spent, kept when they are closed
+        self.learner_seconds = 0.0  # spent learning from the workers' trials
 
     # -- checkpoints ---------------------------------------------------------------------------
 
@@ -520,8 +547,9 @@ class Trainer:
         run's own interval; a new one is stored with the run) and at the end.
 
         SIGINT and SIGTERM (noted by ``stop``, or by a :class:`SignalStop` installed here) let
-        the current trial finish, abandon a held-out evaluation (redone on resume), save and
-        raise :class:`StopRequested`. Any other exception leaves the last checkpoint as it is.
+        the current trial finish, abandon a held-out evaluation or a round of the workers
+        (redone on resume), save and raise :class:`StopRequested`. Any other exception leaves
+        the last checkpoint as it is.
         """
         if checkpoint_every is not None:
             self.checkpoint_every = _interval(checkpoint_every)
@@ -540,11 +568,16 @@ class Trainer:
                 if self.trial >= self.config.trials:
                     break
                 stop.check()
-                self.train_one()
+                before = self.trial
+                if self.config.workers == 1:
+                    self.train_one()
+                else:
+                    self.train_round(stop.check)
                 self.pending_eval = (
                     self.trial % self.config.eval_every == 0 or self.trial == self.config.trials
                 )
-                if self.trial % checkpoint_every == 0 and not self.pending_eval:
+                crossed = self.trial // checkpoint_every != before // checkpoint_every
+                if crossed and (self.config.workers > 1 or not self.pending_eval):
                     self.save()
                 if progress is not None:
                     progress(self.trial, self.running)
@@ -555,11 +588,40 @@ class Trainer:
         self.save()
 
     def train_one(self) -> None:
+        """One trial in this process's env, learned at once."""
         pairs = self.config.training_pairs or 1  # the reach runs: one pair
         trial = run_trial(
             self.env, self.som, fine_moves=pairs, keep_arm=self.config.keep_arm, explore=True
         )
-        learn_from(self.som, trial, pairs)
+        self._learn(trial, pairs)
+
+    def train_round(self, check: Callable[[], None] = lambda: None) -> None:
+        """One round (``envs.harness.workers.round_end``): its trials collected by the
+        workers with the map as it is now, then learned in their order. ``check`` is called
+        while the workers run (it may raise to abandon the round, which leaves the map as it
+        was: a resumed run redoes the round)."""
+        config = self.config
+        if self.pool is None:
+            self.pool = self.make_pool(config, config.workers)
+            self.spent = self.pool.spent
+        pairs = config.training_pairs or 1
+        end = round_end(self.trial, config.trials, config.eval_every, self.round_trials)
+        trials = self.pool.collect(self.som, self.trial, end, pairs, check)
+        start = time.perf_counter()
+        for trial in trials:
+            self._learn(trial, pairs, stale=True)
+        self.learner_seconds += time.perf_counter() - start
+
+    #: Trials of a round with workers (a constant of the code: a checkpoint does not store it).
+    round_trials = ROUND_TRIALS
+    #: The workers of a run with ``workers`` >= 2: local processes (``InProcessPool`` runs the
+    #: same rounds in this process, for measurements and tests).
+    make_pool: Callable[[RunConfig, int], WorkerPool | InProcessPool] = WorkerPool
+
+    def _learn(self, trial: Trial, pairs: int, stale: bool = False) -> None:
+        """Learn from ``trial`` (``pairs`` pairs of its moves; ``stale``: the map of a round's
+        start made its moves) and count it."""
+        learn_from(self.som, trial, pairs, stale)
         self.trial += 1
         for key, k in (("coarse_mm", 0), ("fine_mm", 1)):
             if len(trial.distances) > k:
@@ -587,5 +649,8 @@ class Trainer:
         self.metrics_rows += 1
 
     def close(self) -> None:
+        if self.pool is not None:
+            self.pool.close()
+            self.spent, self.pool = self.pool.spent, None
         self.env.close()
         self.folder.release()

@@ -136,19 +136,23 @@ def _recover(env, controller: Controller, trial: Trial) -> np.ndarray | None:
     return None
 
 
-def learn_from(controller: Learner, trial: Trial, pairs: int = 1) -> int:
+def learn_from(controller: Learner, trial: Trial, pairs: int = 1, stale: bool = False) -> int:
     """Give a learner consecutive moves of a trial: the coarse and first fine move, then, for
     ``pairs`` > 1, fine move k and k + 1 for k = 1 … pairs − 1 (as many as the trial made),
     with the same target and ``coarse=False`` (a learner whose ``learn`` takes that keyword:
-    ``HierarchicalSOM``). Returns how many pairs it learned from (0: the trial was not usable).
+    ``HierarchicalSOM``). ``stale``: an earlier state of the learner made the trial's moves; a
+    learner with ``learn_stale`` (``VisuomotorSOM``) learns the coarse pair by it. Returns how
+    many pairs it learned from (0: the trial was not usable).
     """
     if pairs < 1:
         raise ValueError(f"pairs must be >= 1, got {pairs}")
     learned = 0
+    by_stale = getattr(controller, "learn_stale", None) if stale else None
     for k in range(min(pairs, len(trial.commands) - 1)):
         later = {"coarse": False} if k else {}
+        learn = by_stale if by_stale is not None and k == 0 else controller.learn
         learned += bool(
-            controller.learn(
+            learn(
                 trial.target_px,
                 trial.commands[k],
                 trial.sensed_px[k],

@@ -477,8 +477,33 @@ class VisuomotorSOM(Learner):
         return out
 
     # ----------------------------------------------------------------------------- learning
-    def learn(self, u: Array, theta0: Array, v0: Array, theta1: Array, v1: Array) -> bool:
-        """One training trial: target u, coarse command θ0 -> sensed v0, fine θ1 -> sensed v1.
+    def learn_stale(self, u: Array, theta0: Array, v0: Array, theta1: Array, v1: Array) -> bool:
+        """:meth:`learn` from a trial whose coarse command θ0 an earlier state of the map gave
+        (a worker's copy, ``envs.harness.workers``). MRS's coarse-error target
+        θ_s + A_s (u − v0) corrects the map's command now by what θ0 missed; here it is moved by
+        θ0 − the map's command now for u (θ* = θ_s + A_s (u − v0) + θ0 − θ0_now), the correction
+        of θ0 itself. The other targets hold no θ0 of the map's and are :meth:`learn`'s. It
+        runs the numpy reference path."""
+        shift = None
+        c = self._config
+        if c.protocol == "mrs" and c.theta_target == "coarse-error":
+            u_a = np.asarray(u, dtype=float)
+            if u_a.shape == (c.input_dim,) and np.isfinite(u_a).all():
+                shift = np.asarray(theta0, dtype=float) - self.act_batch(u_a[None])[0]
+        return self.learn(u, theta0, v0, theta1, v1, theta_shift=shift)
+
+    def learn(
+        self,
+        u: Array,
+        theta0: Array,
+        v0: Array,
+        theta1: Array,
+        v1: Array,
+        *,
+        theta_shift: np.ndarray | None = None,
+    ) -> bool:
+        """One training trial: target u, coarse command θ0 -> sensed v0, fine θ1 -> sensed v1
+        (``theta_shift``: see :meth:`learn_stale`; it takes the numpy reference path).
 
         Returns:
             True if the map learned; False if the trial was skipped and counted in ``skipped``:
@@ -497,7 +522,7 @@ class VisuomotorSOM(Learner):
         shapes_ok = fast_ok and v0.shape == (D,) == v1.shape
         trial = (u, theta0, v0, theta1, v1)
         if shapes_ok:
-            if self._compiled_moves:
+            if self._compiled_moves and theta_shift is None:
                 learned = self._learn_compiled(trial)
                 if learned is not None:
                     return learned  # else an input is wrong: see below
@@ -525,7 +550,7 @@ class VisuomotorSOM(Learner):
         if s < 0:
             s = self.winner(u)
         self.learned.version += 1
-        self._protocol.learn(self, s, trial, dv / dv2)
+        self._protocol.learn(self, s, trial, dv / dv2, theta_shift)
         self.t += 1
         return True
 

@@ -80,11 +80,21 @@ class TrialProtocol:
         """Coarse commands (M, J) for targets U (M, D) with winners s (M,)."""
         raise NotImplementedError
 
-    def learn(self, som: MapParts, s: int, trial: Trial, dv_n: np.ndarray) -> None:
+    def learn(
+        self,
+        som: MapParts,
+        s: int,
+        trial: Trial,
+        dv_n: np.ndarray,
+        theta_shift: np.ndarray | None = None,
+    ) -> None:
         """Update the map from a checked, usable trial (u, θ0, v0, θ1, v1) whose winner is s.
 
         Args:
             dv_n: (v1 − v0) / |v1 − v0|², (D,).
+            theta_shift: (J,) added to a θ target that holds θ0 implicitly (MRS's coarse-error
+                θ_s + A_s (u − v0) assumes θ0 is the map's command now): θ0 − the map's command
+                now, for a trial whose θ0 an earlier map gave (``VisuomotorSOM.learn_stale``).
         """
         raise NotImplementedError
 
@@ -137,11 +147,20 @@ class MRS(TrialProtocol):
         GA = (G @ state.A.reshape(N, J * D)).reshape(M, J, D)  # Ā per target
         return som.clip(G @ offset + np.einsum("mjd,md->mj", GA, U))
 
-    def learn(self, som: MapParts, s: int, trial: Trial, dv_n: np.ndarray) -> None:
+    def learn(
+        self,
+        som: MapParts,
+        s: int,
+        trial: Trial,
+        dv_n: np.ndarray,
+        theta_shift: np.ndarray | None = None,
+    ) -> None:
         config = som.config
         eps, sigma, eps_out, sigma_out, _ = som.params()
         noise_term = NOISE_TERMS * config.sensing_noise**2
         theta_star, a_star = targets(config.theta_target, som.learned, s, trial, dv_n, noise_term)
+        if theta_shift is not None and config.theta_target == "coarse-error":
+            theta_star = theta_star + theta_shift
         rates = (eps, sigma, eps_out, sigma_out)
         mrs_update(
             som.learned, som.grid, s, trial[0], theta_star, a_star, rates, som.lower, som.upper
@@ -176,9 +195,17 @@ class Brause(TrialProtocol):
     def coarse_batch(self, som: MapParts, U: np.ndarray, s: np.ndarray) -> np.ndarray:
         return som.clip(som.learned.theta[s])
 
-    def learn(self, som: MapParts, s: int, trial: Trial, dv_n: np.ndarray) -> None:
+    def learn(
+        self,
+        som: MapParts,
+        s: int,
+        trial: Trial,
+        dv_n: np.ndarray,
+        theta_shift: np.ndarray | None = None,
+    ) -> None:
         """(3.9), (3.10) in the forms of the commands sent (x = u, x_I = v0, x_F = v1), then
-        one γ and the step neighbourhood (3.2) for w, Θ and A."""
+        one γ and the step neighbourhood (3.2) for w, Θ and A (their targets hold no θ0 of
+        the map's: ``theta_shift`` is not needed)."""
         config = som.config
         theta_star, a_star = targets("fine-error", som.learned, s, trial, dv_n)  # (3.9), (3.10)
         gamma = harmonic(config.gamma.initial, config.gamma.final, som.t, config.t_max)
