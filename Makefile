@@ -77,7 +77,7 @@ timings:
 # The long fault tests: ten times the signals of the kill test and the damaged checkpoints of
 # the fuzz test in `make test`.
 soak: $(VENV)/.installed
-	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -rP -n 2 tests/test_kill.py tests/test_checkpoint_fuzz.py tests/test_run_state_fuzz.py
+	VISUOMOTOR_SOAK=1 $(BIN)/python -m pytest -q -rP -n 2 tests/test_kill.py tests/test_workers_kill.py tests/test_checkpoint_fuzz.py tests/test_run_state_fuzz.py
 
 # The rl extra (Stable-Baselines3 and torch's CPU build) and its tests.
 $(VENV)/.installed-rl: $(VENV)/.installed $(LOCKS)/rl.txt
