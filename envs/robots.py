@@ -221,6 +221,25 @@ ROBOTS: dict[str, RobotSpec] = {
         grasp=PUMA_GRASP,
         grasp_env="PumaGrasp-v0",
     ),
+    # Arms generated from their DH tables (models/<robot>/dh.toml, visuomotor-make-arm).
+    "ur5e": RobotSpec(
+        model="ur5e",
+        title="UR5e-type arm",
+        short="ur5e",
+        reach_env="Ur5eReach-v0",
+        sensed={3: "tcp", 6: "tcp"},
+        markers={3: "marker_tcp", 6: "marker_tcp"},
+        tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link6's)
+    ),
+    "panda": RobotSpec(
+        model="panda",
+        title="Franka-Panda-type arm",
+        short="panda",
+        reach_env="PandaReach-v0",
+        sensed={7: "tcp"},
+        markers={7: "marker_tcp"},
+        tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link7's)
+    ),
 }
 
 
