@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
+import models
 from envs.sensing.marker_detection import (
     GRASP_HAND,
     GRASP_OBJECT,
@@ -22,6 +24,9 @@ from envs.sensing.marker_detection import (
 from models.puma560.grasp import HAND_COLOURS, MARKER_COLOURS
 from models.robot_model import RobotModel, robot_model
 from models.workspace import Workspace
+
+if TYPE_CHECKING:
+    import mujoco
 
 #: Width : height of the sensing images of both scenes (320 x 240 by default).
 CAMERA_ASPECT = (4, 3)
@@ -138,7 +143,7 @@ class RobotSpec:
     kinematics: RobotModel = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        model = robot_model(self.model)
+        model = self._robot_model()
         object.__setattr__(self, "kinematics", model)
         if self.reach is None:
             object.__setattr__(self, "reach", model.reach)
@@ -166,6 +171,15 @@ class RobotSpec:
                 f"robot {self.model!r}: give the grasp task's markers (grasp) and its env id "
                 "(grasp_env) together"
             )
+
+    def _robot_model(self) -> RobotModel:
+        """The kinematics: the model folder's ``MODEL`` (a spec built at run time, such as
+        ``ArmReach-v0``'s of a user's MJCF, gives its own)."""
+        return robot_model(self.model)
+
+    def load_model(self, scene_file: str = "scene.xml") -> mujoco.MjModel:
+        """Compile a scene of the robot's folder (``scene.xml``, ``scene_grasp.xml``)."""
+        return models.load_model(self.model, scene_file=scene_file)
 
     @property
     def joint_options(self) -> tuple[int, ...]:
@@ -241,6 +255,16 @@ ROBOTS: dict[str, RobotSpec] = {
         tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link7's)
     ),
 }
+
+
+def robot_spec(robot: str | RobotSpec) -> RobotSpec:
+    """The spec of a registry key, or ``robot`` itself if it is a spec (an env built at run time
+    from a user's model); ValueError naming the registered robots else."""
+    if isinstance(robot, RobotSpec):
+        return robot
+    if not isinstance(robot, str) or robot not in ROBOTS:
+        raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
+    return ROBOTS[robot]
 
 
 def check_registry(robots: dict[str, RobotSpec]) -> None:

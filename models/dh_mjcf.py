@@ -408,7 +408,7 @@ is compensated (`gravcomp`). The cameras `cam_left` and
 
 | file | holds |
 |---|---|
-| `{arm.name}.xml` | the robot alone: joints, position actuators, sites `base`, `tcp`, the marker, keyframes |
+| `{arm.name}.xml` | the robot: joints, servos, sites `base`, `tcp`, the marker, keyframes |
 | `scene.xml` | the robot, floor, light, cameras `cam_left`, `cam_right`, `overview`, `target` |
 | `{table}` | the DH table this folder is generated from |
 | `__init__.py` | `MODEL`: the robot's `RobotModel`, read from the table |
