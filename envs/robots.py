@@ -123,6 +123,10 @@ class RobotSpec:
             grid.
         reach: the arm's reach (m), for errors in % of it; workspace: where reach targets are
             drawn (world, m). Both are the model's unless given (a test narrows the workspace).
+        default_runs: the programs that run every robot unless told which (the demo, the docs
+            media, sensing accuracy, adaptation, the RL comparison, the env benchmark) run this
+            one too; the arms generated from DH tables are left out of them (``--env`` and the
+            sweep grid take them).
     """
 
     model: str
@@ -139,6 +143,7 @@ class RobotSpec:
     grasp_short: str = "grasp"
     reach: float = None  # type: ignore[assignment]  # the model's unless given
     workspace: Workspace = None  # type: ignore[assignment]  # the model's unless given
+    default_runs: bool = True
     #: The robot's model, read once from its folder's package.
     kinematics: RobotModel = field(init=False, repr=False, compare=False)
 
@@ -244,6 +249,7 @@ ROBOTS: dict[str, RobotSpec] = {
         sensed={3: "tcp", 6: "tcp"},
         markers={3: "marker_tcp", 6: "marker_tcp"},
         tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link6's)
+        default_runs=False,
     ),
     "panda": RobotSpec(
         model="panda",
@@ -253,6 +259,7 @@ ROBOTS: dict[str, RobotSpec] = {
         sensed={7: "tcp"},
         markers={7: "marker_tcp"},
         tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link7's)
+        default_runs=False,
     ),
 }
 
@@ -295,6 +302,11 @@ def check_registry(robots: dict[str, RobotSpec]) -> None:
 def reach_env_ids() -> tuple[str, ...]:
     """Every robot's reach env id, in registry order (``RiacsReach-v0``, ``PumaReach-v0``)."""
     return tuple(spec.reach_env for spec in ROBOTS.values())
+
+
+def default_reach_env_ids() -> tuple[str, ...]:
+    """The reach env ids of the robots with :attr:`RobotSpec.default_runs`, in registry order."""
+    return tuple(spec.reach_env for spec in ROBOTS.values() if spec.default_runs)
 
 
 def grasp_env_ids() -> tuple[str, ...]:

@@ -22,15 +22,14 @@ import mujoco
 import numpy as np
 
 from envs.cli import common as cli
+from envs.cli import options
 from models import dh_arm, dh_mjcf
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = cli.parser(__doc__)
     p.add_argument("table", type=Path, help="the DH table file (.toml or .json)")
-    p.add_argument(
-        "--out", type=cli.out_folder, default=None, help="the robot folder (default: ./<name>/)"
-    )
+    options.OUT.add(p, default=None, note="the robot folder (default: ./<name>/)")
     return p.parse_args(argv)
 
 
