@@ -35,7 +35,7 @@ from models.dh_arm import (
 
 CAMERA_ASPECT = 4 / 3  # width / height of the sensing images (320 x 240)
 CAMERA_MARGIN = 0.15  # the sampled workspace spans this much less than the image's half-size
-CAMERA_ELEVATION = math.radians(15.0)  # the stereo pair looks down at the workspace this much
+CAMERA_ELEVATION = math.radians(15.0)  # the pair looks down this much (sees under a wrist)
 CAMERA_DISTANCE = 2.6  # x the workspace's radius about its centre
 CAMERA_BASELINE = 0.3  # x the cameras' distance from the centre
 CAMERA_SEED = 0
@@ -62,7 +62,7 @@ class Camera:
     def mjcf(self) -> str:
         xyaxes = " ".join(_f(v) for v in (*self.right, *self.up))
         return (
-            f'<camera name="{self.name}" pos="{_vec(self.pos)}" fovy="{self.fovy_deg:.4f}" '
+            f'<camera name="{self.name}" pos="{_vec(self.pos)}" fovy="{_f(self.fovy_deg)}" '
             f'xyaxes="{xyaxes}"/>'
         )
 
