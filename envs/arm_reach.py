@@ -7,7 +7,9 @@ at the effector site; where the model has none, a mocap ``target`` with a red sp
 and the cameras ``cam_left``, ``cam_right`` and ``overview`` (placed as a generated arm's,
 :func:`models.dh_mjcf.place_cameras`, about the site's positions over seeded random joint
 vectors). Joint ranges are the model's (an unlimited hinge: ±π); home is the keyframe
-``home``, else the model's first keyframe, else zeros, clipped into the ranges. Targets are
+``home``, else the model's first keyframe, else zeros, clipped into the ranges; the keyframe
+``ready`` (where a fresh map's joint vectors and the numerical IK start) puts the site as
+near the sampled points' centre as the IK from home gets. Targets are
 drawn near the effector's reachable points (:class:`ReachableCloud`).
 """
 
@@ -289,13 +291,19 @@ def user_robot(
     qadr = model.jnt_qposadr[[model.joint(f"joint{i + 1}").id for i in range(n)]]
     spec.add_key(name="home", qpos=home, ctrl=home[qadr])
     model = spec.compile()
+    start = _kinematics(model, home, n, effector_site, home[qadr].copy())
+    ready = start.inverse(points.mean(axis=0)[None], home[qadr][None])[0][0]
+    posture = home.copy()
+    posture[qadr] = ready
+    spec.add_key(name="ready", qpos=posture, ctrl=ready)  # where a fresh map's θ start
+    model = spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     mujoco.mj_kinematics(model, data)
     anchor = data.xanchor[model.joint("joint1").id]  # reach: from the first joint's axis
     reach = float(np.max(np.linalg.norm(points - anchor, axis=-1)))
     workspace = ReachableCloud(points)
-    arm = _kinematics(model, home, n, effector_site, home[qadr].copy())
+    arm = _kinematics(model, home, n, effector_site, ready)
     kinematics = RobotModel(USER_ROBOT, reach, workspace, {n: lambda configuration: arm})
     return UserRobotSpec(
         model=USER_ROBOT,
