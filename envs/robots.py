@@ -256,8 +256,8 @@ ROBOTS: dict[str, RobotSpec] = {
         title="Franka-Panda-type arm",
         short="panda",
         reach_env="PandaReach-v0",
-        sensed={4: "tcp", 7: "tcp"},
-        markers={4: "marker_tcp", 7: "marker_tcp"},
+        sensed={7: "tcp"},
+        markers={7: "marker_tcp"},
         tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link7's)
         default_runs=False,
     ),
