@@ -376,8 +376,9 @@ def readme(arm: DHArm, table: str) -> str:
     a, d, alpha, theta = arm.tool
     return f"""# {arm.title}
 
-Generated from its DH table by `visuomotor-make-arm {table}` (`models/dh_mjcf.py`); edit the
-table and run it again rather than editing the XML.
+Generated from its DH table by `visuomotor-make-arm models/{arm.name}/{table} --out
+models/{arm.name}` (`models/dh_mjcf.py`); edit the table and run it again rather than editing
+the XML.
 
 ## Source
 

@@ -4,6 +4,7 @@ tables' published figures, the automatic cameras, the one-line errors."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import warnings
@@ -13,6 +14,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 import pytest
+import tomllib
 from gymnasium.utils.env_checker import check_env
 
 import envs  # noqa: F401  (registers the envs)
@@ -176,6 +178,15 @@ def test_a_bad_table_is_one_line_naming_what_is_wrong(text, message, tmp_path):
                          capture_output=True, text=True, cwd=tmp_path)  # fmt: skip
     assert run.returncode == 2 and len(run.stderr.strip().splitlines()) == 1, run.stderr
     assert message in run.stderr and not any(tmp_path.glob("*/"))
+
+
+def test_a_json_table_is_the_same_arm_as_its_toml(tmp_path):
+    path = tmp_path / "ur5e.json"
+    path.write_text(json.dumps(tomllib.loads((ROOT / "models" / "ur5e" / "dh.toml").read_text())))
+    toml, as_json = table("ur5e"), dh_arm.read_table(path)
+    for name in ("a", "d", "alpha", "offset", "lower", "upper", "home", "radius", "tool"):
+        assert np.array_equal(getattr(toml, name), getattr(as_json, name)), name
+    assert dh_mjcf.robot_xml(as_json) == dh_mjcf.robot_xml(toml)
 
 
 def test_a_range_with_lower_above_upper_is_refused(tmp_path):
