@@ -27,7 +27,7 @@ import numpy as np
 from envs.reach import ReachEnv
 from envs.robots import RobotSpec
 from models.arms import ArmKinematics
-from models.dh_mjcf import SERVO_FREQUENCY, place_cameras
+from models.dh_mjcf import SERVO_FREQUENCY, mass_diagonal, place_cameras
 from models.numeric_ik import solve_positions
 from models.robot_model import RobotModel
 from models.workspace import Workspace
@@ -223,17 +223,12 @@ def _camera_quat(right: np.ndarray, up: np.ndarray) -> np.ndarray:
 
 
 def _set_servos(spec: mujoco.MjSpec, model: mujoco.MjModel, home: np.ndarray, n: int) -> None:
-    """kp = I ω², kv = 2 I ω at home (I: the joint's diagonal of the mass matrix)."""
-    data = mujoco.MjData(model)
-    data.qpos[:] = home
-    mujoco.mj_forward(model, data)
-    full = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, data, full)
+    """kp = I ω², kv = 2 I ω with I each joint's inertia at home, as a generated arm's."""
+    inertia = mass_diagonal(model, home)
     for i in range(n):
         dof = model.jnt_dofadr[model.joint(f"joint{i + 1}").id]
-        inertia = full[dof, dof]
         spec.actuator(f"joint{i + 1}").set_to_position(
-            kp=inertia * SERVO_FREQUENCY**2, kv=2 * inertia * SERVO_FREQUENCY
+            kp=inertia[dof] * SERVO_FREQUENCY**2, kv=2 * inertia[dof] * SERVO_FREQUENCY
         )
 
 

@@ -181,22 +181,28 @@ def _link_geoms(
     return lines
 
 
+def mass_diagonal(model, qpos: np.ndarray) -> np.ndarray:
+    """The diagonal (nv,) of MuJoCo's joint-space mass matrix at ``qpos``: each joint's
+    effective inertia (kg m² for a hinge), armature included."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    full = np.zeros((model.nv, model.nv))
+    mujoco.mj_fullM(model, data, full)
+    return np.diag(full).copy()
+
+
 def servo_inertia(arm: DHArm) -> np.ndarray:
     """Each joint's largest effective inertia (kg m²) at home, ready and the table's zero pose
-    (clipped into range; a stretched arm for most tables): the diagonal of
-    MuJoCo's joint-space mass matrix of the arm as written without servo gains."""
+    (clipped into range; a stretched arm for most tables), of the arm as written without servo
+    gains (:func:`mass_diagonal`)."""
     import mujoco
 
     model = mujoco.MjModel.from_xml_string(robot_xml(arm, np.ones(arm.n)))
-    data = mujoco.MjData(model)
-    largest = np.zeros(arm.n)
-    for pose in (arm.home, ready_pose(arm), np.clip(0.0, arm.lower, arm.upper)):
-        data.qpos[:] = pose
-        mujoco.mj_forward(model, data)
-        full = np.zeros((model.nv, model.nv))
-        mujoco.mj_fullM(model, data, full)
-        largest = np.maximum(largest, np.diag(full))
-    return largest
+    poses = (arm.home, ready_pose(arm), np.clip(0.0, arm.lower, arm.upper))
+    return np.max([mass_diagonal(model, pose) for pose in poses], axis=0)
 
 
 def robot_xml(arm: DHArm, inertia: np.ndarray | None = None) -> str:
