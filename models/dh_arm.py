@@ -283,13 +283,9 @@ def joint_frames(arm: DHArm, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     axes = []
     for i in range(arm.n):
         axes.append(T)
-        Rz = np.zeros((*theta.shape[:-1], 4, 4))
-        Rz[..., 0, 0], Rz[..., 0, 1], Rz[..., 1, 0], Rz[..., 1, 1] = (
-            c[..., i],
-            -s[..., i],
-            s[..., i],
-            c[..., i],
-        )
+        Rz = np.zeros((*theta.shape[:-1], 4, 4))  # joint i's turn about z
+        Rz[..., 0, 0] = Rz[..., 1, 1] = c[..., i]
+        Rz[..., 0, 1], Rz[..., 1, 0] = -s[..., i], s[..., i]
         Rz[..., 2, 2] = Rz[..., 3, 3] = 1.0
         T = T @ Rz @ F[i + 1]
     return np.stack(axes, axis=-3), T
