@@ -17,11 +17,13 @@ import pytest
 import tomllib
 from gymnasium.utils.env_checker import check_env
 
-import envs  # noqa: F401  (registers the envs)
+import envs
 import models
 from envs.arm_reach import UserModelError
 from envs.harness.evaluation import evaluate
 from envs.harness.trials import learn_from, run_trial
+from envs.robots import ROBOTS, RobotSpec, check_registry
+from learners.baselines.analytic_ik import AnalyticIK
 from learners.som.config import SOMConfig
 from learners.som.controller import VisuomotorSOM
 from models import dh_arm, dh_mjcf
@@ -290,3 +292,86 @@ def test_a_map_learns_to_reach_with_a_user_mjcf(user_xml):
     after = evaluate(env, som, 100).distances[:, -1].mean()
     assert after < 0.2 * before, (before, after)
     env.close()
+
+
+#: A three-joint elbow arm (standard DH) that a user might write: the registry entry below is
+#: the only edit its folder needs.
+ELBOW_TOML = """
+name = "elbow3"
+title = "Elbow arm"
+convention = "standard"
+angle_unit = "deg"
+source = "A test's arm."
+base_height = 0.5
+controlled = [3]
+
+[workspace]
+lower = [0.25, -0.15, 0.45]
+upper = [0.45, 0.15, 0.65]
+
+[[joint]]
+a = 0.0
+d = 0.2
+alpha = 90.0
+lower = -170.0
+upper = 170.0
+home = 0.0
+radius = 0.03
+
+[[joint]]
+a = 0.3
+d = 0.0
+alpha = 0.0
+lower = -10.0
+upper = 170.0
+home = 45.0
+radius = 0.025
+
+[[joint]]
+a = 0.25
+d = 0.0
+alpha = 0.0
+lower = -160.0
+upper = 0.0
+home = -90.0
+radius = 0.02
+"""
+
+
+@pytest.fixture
+def elbow_arm(tmp_path, monkeypatch):
+    """The folder written by make_arm's function into a folder of the models package's path,
+    one RobotSpec in the registry, its env registered; all undone after the test."""
+    arm = dh_arm.parse_table(tomllib.loads(ELBOW_TOML))
+    dh_mjcf.write_folder(arm, tmp_path / "robots" / "elbow3", "dh.toml", ELBOW_TOML)
+    monkeypatch.setattr(models, "__path__", [*models.__path__, str(tmp_path / "robots")])
+    spec = RobotSpec(model="elbow3", title="Elbow arm", short="elbow", reach_env="ElbowReach-v0",
+                     sensed={3: "tcp"}, markers={3: "marker_tcp"},
+                     tool_axes={"tcp": (0.0, 0.0, 1.0)}, default_runs=False)  # fmt: skip
+    monkeypatch.setitem(ROBOTS, "elbow3", spec)
+    envs.register_robot("elbow3")
+    yield arm
+    gym.registry.pop("ElbowReach-v0", None)
+    for module in [m for m in sys.modules if m.startswith("models.elbow3")]:
+        del sys.modules[module]
+    if hasattr(models, "elbow3"):
+        delattr(models, "elbow3")
+
+
+def test_a_generated_arm_needs_only_its_registry_entry(elbow_arm):
+    """Its env reaches a target through the cameras with the exact IK, the tcp is the
+    standard DH chain of models/dh.py, and rendered sensing sees both markers."""
+    check_registry(ROBOTS)
+    dh = DHTable(elbow_arm.alpha, elbow_arm.a, elbow_arm.d, elbow_arm.lower, elbow_arm.upper)
+    for sensing in ("project", "render"):
+        env = gym.make("ElbowReach-v0", sensing=sensing, control="kinematic")
+        base = env.unwrapped
+        obs, info = env.reset(seed=4)
+        ik = AnalyticIK.for_robot(base.nominal_stereo.triangulate, "elbow3", 3)
+        obs, _, _, _, info = env.step(ik.act(obs["desired_goal"]))
+        expected = forward_frames(dh, obs["observation"])[3, :3, 3] + [0, 0, 0.5]
+        assert np.allclose(info["effector_pos"], expected, atol=TOL)
+        assert info["visible"]
+        if sensing == "project":
+            assert info["distance"] < 1e-6, info["distance"]
+        env.close()
