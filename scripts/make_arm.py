@@ -1,4 +1,4 @@
-"""Write a Menagerie-style robot folder from an arm's DH table.
+"""Write a Menagerie-style robot folder for an arm given by its DH table.
 
 The program is :mod:`envs.cli.make_arm` (also installed as a console script).
 """
