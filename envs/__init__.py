@@ -1,7 +1,8 @@
 """Gymnasium environments and stereo camera sensing.
 
 Importing this package chooses the off-screen GL back-end (before mujoco is imported) and
-registers ``RiacsReach-v0``, ``PumaReach-v0``, ``PumaGrasp-v0`` and ``PumaTrack-v0`` with
+registers ``RiacsReach-v0``, ``PumaReach-v0``, ``PumaGrasp-v0``, ``PumaTrack-v0`` and
+``ArmReach-v0`` (a user's MJCF, :mod:`envs.arm_reach`) with
 Gymnasium: every robot's reach env and grasp env from the registry (:data:`envs.robots.ROBOTS`,
 :func:`register_robot`), and the PUMA's path-tracking env. ``gym.make`` returns the reach and
 grasp envs in :class:`envs.goal_env.GoalEnvWrapper`, which has ``compute_reward``.
@@ -44,6 +45,12 @@ def register_robot(robot: str) -> None:
 
 for _robot in ROBOTS:
     register_robot(_robot)
+gym.register(  # the reach task on a user's MJCF (gym.make(..., robot=, joints=, effector_site=))
+    id="ArmReach-v0",
+    entry_point="envs.arm_reach:ArmReachEnv",
+    max_episode_steps=MAX_EPISODE_STEPS,
+    additional_wrappers=(GOAL_ENV_WRAPPER,),
+)
 gym.register(
     id="PumaTrack-v0",
     entry_point="envs.track:PumaTrackEnv",

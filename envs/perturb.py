@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from envs import arguments
-from envs.robots import ROBOTS
+from envs.robots import RobotSpec, robot_spec
 from envs.sensing.stereo import CameraPair, PinholeCamera
 from models.rotations import rotvec_to_matrix
 from models.workspace import Workspace
@@ -235,7 +235,7 @@ class SceneEditor:
         self,
         model,
         data,
-        robot: str,
+        robot: str | RobotSpec,
         site: str,
         markers: Sequence[str],
         nominal: CameraPair,
@@ -256,7 +256,7 @@ class SceneEditor:
         model.site_sameframe[self._site] = model.geom_sameframe[self._marker] = 0
         self._site_pos = model.site_pos[self._site].copy()
         self._marker_pos = model.geom_pos[self._marker].copy()
-        self._tool_axis = np.array(ROBOTS[robot].tool_axes[site])
+        self._tool_axis = np.array(robot_spec(robot).tool_axes[site])
         self._root = int(model.body_rootid[model.site_bodyid[self._site]])
         self._root_pos = model.body_pos[self._root].copy()
 

@@ -15,7 +15,7 @@ from envs.composite import CompositeView
 from envs.kernels import clip_command
 from envs.perturb import Perturbation, PerturbationError, SceneEditor, random_sizes
 from envs.reward import GoalPoints, reward_terms, seen_flags
-from envs.robots import ROBOTS, MarkerSet, reach_env_ids
+from envs.robots import MarkerSet, RobotSpec, reach_env_ids, robot_spec
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
 from envs.sensing import pinhole_kernels
 from envs.sensing.camera_images import CameraImages
@@ -192,7 +192,7 @@ class ReachEnv(ArmScene):
 
     def __init__(
         self,
-        robot: str = "riacs",
+        robot: str | RobotSpec = "riacs",
         joints: int = 3,
         sensing: str = "render",
         control: str = "servo",
@@ -209,11 +209,10 @@ class ReachEnv(ArmScene):
         if not isinstance(terminate_on_success, bool):
             raise ValueError(f"terminate_on_success is {terminate_on_success!r}, not True or False")
         self.terminate_on_success = terminate_on_success
-        if not isinstance(robot, str) or robot not in ROBOTS:
-            raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
-        if isinstance(joints, bool) or joints not in ROBOTS[robot].joint_options:
+        spec = robot_spec(robot)  # a registry key, or a spec built at run time (ArmReach-v0)
+        if isinstance(joints, bool) or joints not in spec.joint_options:
             raise ValueError(
-                f"{robot} can control {ROBOTS[robot].joint_options} joints, not {joints!r}"
+                f"{spec.model} can control {spec.joint_options} joints, not {joints!r}"
             )
         if not isinstance(sensing, str) or sensing not in SENSING_MODES:
             raise ValueError(f"unknown sensing {sensing!r}; valid: {', '.join(SENSING_MODES)}")
@@ -230,11 +229,11 @@ class ReachEnv(ArmScene):
             arguments.positive_int("pixels_width (px)", pixels_width),
             arguments.positive_int("pixels_height (px)", pixels_height),
         )
-        super().__init__(robot, joints, width, height, self._task_markers(robot, joints))
+        super().__init__(spec, joints, width, height, self._task_markers(spec.model, joints))
         width, height = self.image_width, self.image_height
         #: Goal entries: 4 pixels (u_left, v_left, u_right, v_right) per marker.
         self.goal_size = 4 * len(self.markers.effector)
-        self.robot, self.joints, self.sensing, self.control = robot, joints, sensing, control
+        self.robot, self.joints, self.sensing, self.control = spec.model, joints, sensing, control
         self.success_threshold = float(success_threshold)
         self.render_mode = render_mode
 
@@ -249,7 +248,7 @@ class ReachEnv(ArmScene):
         self._editor = SceneEditor(
             self.model,
             self.data,
-            robot,
+            spec,
             self.markers.site,
             self.markers.effector,
             self.nominal_stereo,

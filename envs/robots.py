@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
+import models
 from envs.sensing.marker_detection import (
     GRASP_HAND,
     GRASP_OBJECT,
@@ -22,6 +24,9 @@ from envs.sensing.marker_detection import (
 from models.puma560.grasp import HAND_COLOURS, MARKER_COLOURS
 from models.robot_model import RobotModel, robot_model
 from models.workspace import Workspace
+
+if TYPE_CHECKING:
+    import mujoco
 
 #: Width : height of the sensing images of both scenes (320 x 240 by default).
 CAMERA_ASPECT = (4, 3)
@@ -118,6 +123,10 @@ class RobotSpec:
             grid.
         reach: the arm's reach (m), for errors in % of it; workspace: where reach targets are
             drawn (world, m). Both are the model's unless given (a test narrows the workspace).
+        default_runs: the programs that run every robot unless told which (the demo, the docs
+            media, sensing accuracy, adaptation, the RL comparison, the env benchmark) run this
+            one too; the arms generated from DH tables are left out of them (``--env`` and the
+            sweep grid take them).
     """
 
     model: str
@@ -134,11 +143,12 @@ class RobotSpec:
     grasp_short: str = "grasp"
     reach: float = None  # type: ignore[assignment]  # the model's unless given
     workspace: Workspace = None  # type: ignore[assignment]  # the model's unless given
+    default_runs: bool = True
     #: The robot's model, read once from its folder's package.
     kinematics: RobotModel = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        model = robot_model(self.model)
+        model = self._robot_model()
         object.__setattr__(self, "kinematics", model)
         if self.reach is None:
             object.__setattr__(self, "reach", model.reach)
@@ -166,6 +176,15 @@ class RobotSpec:
                 f"robot {self.model!r}: give the grasp task's markers (grasp) and its env id "
                 "(grasp_env) together"
             )
+
+    def _robot_model(self) -> RobotModel:
+        """The kinematics: the model folder's ``MODEL`` (a spec built at run time, such as
+        ``ArmReach-v0``'s of a user's MJCF, gives its own)."""
+        return robot_model(self.model)
+
+    def load_model(self, scene_file: str = "scene.xml") -> mujoco.MjModel:
+        """Compile a scene of the robot's folder (``scene.xml``, ``scene_grasp.xml``)."""
+        return models.load_model(self.model, scene_file=scene_file)
 
     @property
     def joint_options(self) -> tuple[int, ...]:
@@ -221,7 +240,38 @@ ROBOTS: dict[str, RobotSpec] = {
         grasp=PUMA_GRASP,
         grasp_env="PumaGrasp-v0",
     ),
+    # Arms generated from their DH tables (models/<robot>/dh.toml, visuomotor-make-arm).
+    "ur5e": RobotSpec(
+        model="ur5e",
+        title="UR5e-type arm",
+        short="ur5e",
+        reach_env="Ur5eReach-v0",
+        sensed={3: "tcp", 6: "tcp"},
+        markers={3: "marker_tcp", 6: "marker_tcp"},
+        tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link6's)
+        default_runs=False,
+    ),
+    "panda": RobotSpec(
+        model="panda",
+        title="Franka-Panda-type arm",
+        short="panda",
+        reach_env="PandaReach-v0",
+        sensed={7: "tcp"},
+        markers={7: "marker_tcp"},
+        tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link7's)
+        default_runs=False,
+    ),
 }
+
+
+def robot_spec(robot: str | RobotSpec) -> RobotSpec:
+    """The spec of a registry key, or ``robot`` itself if it is a spec (an env built at run time
+    from a user's model); ValueError naming the registered robots else."""
+    if isinstance(robot, RobotSpec):
+        return robot
+    if not isinstance(robot, str) or robot not in ROBOTS:
+        raise ValueError(f"unknown robot {robot!r}; valid robots: {', '.join(ROBOTS)}")
+    return ROBOTS[robot]
 
 
 def check_registry(robots: dict[str, RobotSpec]) -> None:
@@ -252,6 +302,11 @@ def check_registry(robots: dict[str, RobotSpec]) -> None:
 def reach_env_ids() -> tuple[str, ...]:
     """Every robot's reach env id, in registry order (``RiacsReach-v0``, ``PumaReach-v0``)."""
     return tuple(spec.reach_env for spec in ROBOTS.values())
+
+
+def default_reach_env_ids() -> tuple[str, ...]:
+    """The reach env ids of the robots with :attr:`RobotSpec.default_runs`, in registry order."""
+    return tuple(spec.reach_env for spec in ROBOTS.values() if spec.default_runs)
 
 
 def grasp_env_ids() -> tuple[str, ...]:

@@ -16,11 +16,10 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from envs.robots import ROBOTS, MarkerSet, RobotSpec
+from envs.robots import MarkerSet, RobotSpec, robot_spec
 from envs.sensing.foveated import FoveatedSensing
 from envs.sensing.stereo import StereoRig
 from envs.sizes import check_image_size
-from models import load_model
 
 #: Default sensing image size, pixels.
 IMAGE_WIDTH, IMAGE_HEIGHT = 320, 240
@@ -36,7 +35,7 @@ class ArmScene(gym.Env):
     """A robot arm in its scene with two sensing cameras, the base of the arm environments.
 
     Args:
-        robot: a key of :data:`envs.robots.ROBOTS`.
+        robot: a key of :data:`envs.robots.ROBOTS` (or a spec built at run time).
         joints: number of controlled joints (``joint1``..``joint<joints>``); they decide the
             sensed point (:attr:`RobotSpec.sensed`) and its green marker, the only one drawn.
         width, height: sensing image size in pixels, in the cameras' aspect ratio
@@ -51,13 +50,18 @@ class ArmScene(gym.Env):
     """
 
     def __init__(
-        self, robot: str, joints: int, width: int, height: int, markers: MarkerSet | None = None
+        self,
+        robot: str | RobotSpec,
+        joints: int,
+        width: int,
+        height: int,
+        markers: MarkerSet | None = None,
     ) -> None:
-        self.spec_robot: RobotSpec = ROBOTS[robot]
+        self.spec_robot: RobotSpec = robot_spec(robot)
         width, height = check_image_size(width, height, self.spec_robot.image_aspect)
         self.image_width, self.image_height = width, height
         self.markers = self.spec_robot.reach_markers(joints) if markers is None else markers
-        self.model = load_model(robot, scene_file=self.markers.scene)
+        self.model = self.spec_robot.load_model(self.markers.scene)
         self.data = mujoco.MjData(self.model)
         self._home = self.model.key(self.markers.start_key).id  # where every episode starts
         self._joint_ids = np.array([self.model.joint(f"joint{i + 1}").id for i in range(joints)])

@@ -7,7 +7,7 @@ robot there). Its ``__init__.py`` defines ``MODEL`` (:mod:`models.robot_model`).
 
 >>> from models import scene_path, available_models
 >>> available_models()
-('puma560', 'riacs')
+('panda', 'puma560', 'riacs', 'ur5e')
 """
 
 from __future__ import annotations

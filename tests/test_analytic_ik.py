@@ -211,7 +211,7 @@ def test_bad_arguments_raise_with_the_valid_options():
         puma560.arm.wrist("sideways")
     with pytest.raises(ValueError, match="valid for riacs: 3 joints"):
         arms.arm_kinematics("riacs", 6)
-    with pytest.raises(ValueError, match="available models: puma560, riacs"):
+    with pytest.raises(ValueError, match="available models: panda, puma560, riacs, ur5e"):
         arms.arm_kinematics("kuka", 3)
     controller = AnalyticIK(lambda px: px[:, :3], riacs.arm.tool())
     with pytest.raises(ValueError, match="shape"):

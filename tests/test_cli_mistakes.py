@@ -40,6 +40,7 @@ PROGRAMS: dict[str, tuple[list[str], tuple[str, str] | None, list[str]]] = {
     "sensing_accuracy": ([], ("--json", "file"), ["--poses"]),
     "bench_envs": ([], ("--json", "file"), ["--steps"]),
     "bench_ik": ([], None, ["--single", "--batch"]),
+    "make_arm": ([str(SCRIPTS.parent / "models" / "ur5e" / "dh.toml")], ("--out", "folder"), []),
 }
 ZERO_ALLOWED = {"--fine-moves", "--video-trials", "--retries"}
 #: Lattice options (with what they need), and lattices no memory holds or no map has.

@@ -61,14 +61,16 @@ FLAGS = {
               "--seed", "--sensing", "--speed", "--trials"},
 }  # fmt: skip
 
+#: Every registered reach and grasp env.
+ENV_CHOICES = {"RiacsReach-v0", "PumaReach-v0", "Ur5eReach-v0", "PandaReach-v0", "PumaGrasp-v0"}
 #: (program, flag): (default, choices) as they were, for the shared options that vary most.
 SHARED = {
     ("train", "--sensing"): ("project", {"render", "project", "foveated"}),
     ("train", "--control"): ("kinematic", {"servo", "kinematic"}),
-    ("train", "--env"): ("RiacsReach-v0", {"RiacsReach-v0", "PumaReach-v0", "PumaGrasp-v0"}),
+    ("train", "--env"): ("RiacsReach-v0", ENV_CHOICES),
     ("train", "--out"): (Path("runs/train"), None),
     ("evaluate", "--sensing"): (None, {"render", "project", "foveated"}),
-    ("evaluate", "--env"): (None, {"RiacsReach-v0", "PumaReach-v0", "PumaGrasp-v0"}),
+    ("evaluate", "--env"): (None, ENV_CHOICES),
     ("evaluate", "--out"): (None, None),
     ("video", "--sensing"): ("foveated", {"render", "project", "foveated"}),
     ("video", "--control"): ("servo", {"servo", "kinematic"}),
@@ -76,7 +78,7 @@ SHARED = {
     ("adapt", "--sensing"): ("project", {"render", "project"}),
     ("compare_rl", "--sensing"): ("project", {"render", "project"}),
     ("compare_rl", "--env"): (["RiacsReach-v0", "PumaReach-v0"],
-                              {"RiacsReach-v0", "PumaReach-v0", "PumaGrasp-v0"}),
+                              ENV_CHOICES),
     ("train_natenet", "--sensing"): ("project", {"render", "project"}),
     ("docs_media", "--seed"): (1, None),
     ("bench_som", "--lattice"): ((12, 7, 4), None),

@@ -317,7 +317,10 @@ def test_every_model_folder_has_one_registry_entry():
         if spec.grasp_env is not None:
             assert gym.spec(spec.grasp_env).entry_point == "envs.grasp:GraspEnv"
             assert robot_of_env(spec.grasp_env) == name
-    with pytest.raises(ValueError, match="registered: RiacsReach-v0, PumaReach-v0, PumaGrasp-v0"):
+    with pytest.raises(
+        ValueError,
+        match="registered: RiacsReach-v0, PumaReach-v0, Ur5eReach-v0, PandaReach-v0, PumaGrasp-v0",
+    ):
         robot_of_env("PumaTrack-v0")
 
 

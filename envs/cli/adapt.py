@@ -25,6 +25,7 @@ from envs.cli import options
 from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
 from envs.reach import REACH_ENV_IDS
+from envs.robots import default_reach_env_ids
 from envs.studies.adaptation import (
     CHANGES,
     MAP_CONTINUAL,
@@ -43,7 +44,9 @@ from learners.som.controller import VisuomotorSOM
 
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = cli.parser(__doc__)
-    parser.add_argument("--envs", nargs="+", default=list(REACH_ENV_IDS), choices=REACH_ENV_IDS)
+    parser.add_argument(
+        "--envs", nargs="+", default=list(default_reach_env_ids()), choices=REACH_ENV_IDS
+    )
     parser.add_argument("--changes", nargs="+", default=list(CHANGES), choices=list(CHANGES))
     options.SENSING.add(
         parser,

@@ -23,7 +23,8 @@ import envs  # noqa: F401  (GL back-end, registration)
 from envs.cli import common as cli
 from envs.cli import options
 from envs.harness.training import RunConfig
-from envs.reach import MAX_EPISODE_STEPS, REACH_ENV_IDS
+from envs.reach import MAX_EPISODE_STEPS
+from envs.robots import default_reach_env_ids
 from envs.studies import rl_report, rl_runs
 from envs.studies.rl_comparison import METHODS, VARIANTS, Curve, checkpoints
 
@@ -48,7 +49,7 @@ def import_torch_first():
 
 def main(argv: list[str] | None = None) -> list[Curve]:
     p = cli.parser(__doc__)
-    options.ENV.add(p, nargs="+", default=list(REACH_ENV_IDS), help="the env ids")
+    options.ENV.add(p, nargs="+", default=list(default_reach_env_ids()), help="the env ids")
     options.SENSING.add(
         p,
         default=RunConfig.sensing,

@@ -29,9 +29,9 @@ SCENE_SEED = 3  # the target of the scene images
 
 
 def runs() -> list[tuple[str, str]]:
-    """(reach env, run folder) of every robot in the registry: each is trained, evaluated and
-    filmed."""
-    return [(spec.reach_env, spec.short) for spec in ROBOTS.values()]
+    """(reach env, run folder) of every robot in the registry's default runs: each is trained,
+    evaluated and filmed."""
+    return [(spec.reach_env, spec.short) for spec in ROBOTS.values() if spec.default_runs]
 
 
 def scene_images(out: Path) -> list[Path]:

@@ -23,7 +23,7 @@ from envs.cli import options
 from envs.cli.controllers import make_controller
 from envs.harness.film import TrialFilm, side_by_side
 from envs.harness.grasp_film import grasp_frames
-from envs.reach import REACH_ENV_IDS
+from envs.robots import default_reach_env_ids
 from learners.persistence import write_atomic
 
 GIF_FPS = 12.0  # frames per second of the animations
@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> list[Path]:
     options.SEED.add(parser, default=1)
     args = parser.parse_args(argv)
     written = []
-    for env_id in REACH_ENV_IDS:
+    for env_id in default_reach_env_ids():
         frames = reach_frames(env_id, args.trials, args.seed)
         written.append(write_gif(frames, args.out / f"{env_id}.gif", GIF_FPS))
     written.append(write_gif(track_frames(args.seed), args.out / "PumaTrack-v0.gif", GIF_FPS))

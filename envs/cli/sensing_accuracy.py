@@ -13,7 +13,7 @@ import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli import options
 from envs.harness.run_folder import write_json
-from envs.reach import REACH_ENV_IDS
+from envs.robots import default_reach_env_ids
 from envs.studies.sensing_accuracy import measure, table
 
 
@@ -26,7 +26,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = p.parse_args(argv)
     width, height = args.image_size
     results = {}
-    for env_id in REACH_ENV_IDS:
+    for env_id in default_reach_env_ids():
         cli.check_image_size(env_id, args.image_size)
         env = gym.make(env_id, sensing="render", control="kinematic", width=width, height=height)
         env.reset(seed=args.seed)

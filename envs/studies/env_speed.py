@@ -17,12 +17,12 @@ import gymnasium as gym
 import numpy as np
 
 import envs  # noqa: F401  (chooses the GL back-end before mujoco is imported, registers the envs)
-from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
-from envs.robots import ROBOTS
+from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, SENSING_MODES
+from envs.robots import ROBOTS, default_reach_env_ids
 from envs.sensing.marker_detection import GREEN_EFFECTOR, RED_TARGET
 
-#: Every robot's reach env, by robot.
-ENV_IDS = {name: spec.reach_env for name, spec in ROBOTS.items()}
+#: The reach env of every robot of the default runs, by robot.
+ENV_IDS = {name: spec.reach_env for name, spec in ROBOTS.items() if spec.default_runs}
 PEER_ID = "Reacher-v5"
 FOVEA_OFFSET = 0.01  # m, marker from target when timing foveated sensing (a fine move's error)
 MS_PER_S = 1e3
@@ -102,7 +102,7 @@ def peer_steps_per_second(n_steps: int, seed: int) -> float | None:
     return rate
 
 
-RL_ENVS = REACH_ENV_IDS
+RL_ENVS = default_reach_env_ids()
 RL_SETTING = {"sensing": "project", "control": "kinematic"}
 US_PER_S = 1e6
 CLOCKS = {"wall": time.perf_counter, "thread": time.thread_time}  # s
