@@ -3,7 +3,9 @@
 Sensing happens in small images (320×240 by default), but people watch frames on large screens:
 the panels may be drawn larger than the sensing images (pixels are scaled onto them), and every
 overlay (target crosshair, detected marker, the trail of earlier detections, labels) is sized in
-proportion to the panel, so that it stays legible when the frame is shown at full-HD size. Where
+proportion to the panel, so that it stays legible when the frame is shown at full-HD size. A
+marker detected on its target is drawn as one symbol, a green ring round a red dot, instead of a
+circle over a crosshair (whose crossing lines read as a glitch). Where
 the arm is small in the camera images (the RIACS cameras see a large part of the unit cube), an
 inset magnifies the neighbourhood of the target.
 """
@@ -28,6 +30,10 @@ FONT = cv2.FONT_HERSHEY_SIMPLEX
 CROSSHAIR_FRACTION = 0.06  # half-length of a crosshair arm
 GAP_FRACTION = 0.025  # free centre of the crosshair, so that the target shows
 CIRCLE_FRACTION = 0.03  # radius of the detection circle
+#: A detection this close to its target (panel pixels, as a fraction of the height) is drawn as
+#: the target reached: the crosshair's free centre, inside which circle and crosshair would cross.
+REACHED_FRACTION = 0.025
+RING_FRACTION = 0.045  # radius of the reached target's ring
 LINE_FRACTION = 1 / 240  # line thickness
 TEXT_FRACTION = 1 / 480  # OpenCV font scale per pixel of panel height
 #: Render flags turned off: shadows and reflections make a frame several times slower to draw
@@ -53,6 +59,8 @@ class CompositeView:
         sensing_size: (width, height) of the sensing images whose pixel coordinates
             :meth:`render` receives; default: the panel size.
         zoom: draw an inset magnifying the target's neighbourhood in each camera view.
+        text_scale: OpenCV font scale of the panels' labels (default: in proportion to the
+            height, :data:`TEXT_FRACTION`); larger for a frame shown small, as in the docs' GIFs.
     """
 
     def __init__(
@@ -62,6 +70,7 @@ class CompositeView:
         width: int,
         sensing_size: tuple[int, int] | None = None,
         zoom: bool = False,
+        text_scale: float | None = None,
     ) -> None:
         self.height, self.width, self.zoom = height, width, zoom
         sensing_width = width if sensing_size is None else sensing_size[0]
@@ -78,7 +87,7 @@ class CompositeView:
         )
         self._views = [View.whole(name, height, width) for name in PANELS]
         self._line = max(1, round(height * LINE_FRACTION))
-        self._text = height * TEXT_FRACTION
+        self._text = height * TEXT_FRACTION if text_scale is None else text_scale
 
     def to_panel(self, px: np.ndarray) -> np.ndarray:
         """Sensing-image pixel coordinates (any shape) -> panel pixel coordinates (centres of
@@ -122,13 +131,11 @@ class CompositeView:
             self._trail(view, points)
             for first in range(0, len(target_px), 4):  # each marker: 4 pixels
                 marker = slice(first + 2 * k, first + 2 * k + 2)
-                target = self.to_panel(target_px[marker])
-                if np.all(np.isfinite(target)):
-                    self._crosshair(view, target)
-                effector = self.to_panel(effector_px[marker])
-                if np.all(np.isfinite(effector)):
-                    radius = round(self.height * CIRCLE_FRACTION)
-                    cv2.circle(view, _int(effector), radius, DETECTION, self._line, cv2.LINE_AA)
+                target, effector = (
+                    self.to_panel(target_px[marker]),
+                    self.to_panel(effector_px[marker]),
+                )
+                draw_marker(view, target, effector, self.height)
             target = self.to_panel(target_px[pick])
             if self.zoom and np.all(np.isfinite(target)):
                 draw_inset(view, target, self._text)
@@ -137,15 +144,6 @@ class CompositeView:
         self._label(overview, "overview")
         panels.append(overview)
         return panels
-
-    def _crosshair(self, image: np.ndarray, uv: np.ndarray) -> None:
-        u, v = _int(uv)
-        size, gap = round(self.height * CROSSHAIR_FRACTION), round(self.height * GAP_FRACTION)
-        for du, dv in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-            start = (u + du * gap, v + dv * gap)
-            end = (u + du * size, v + dv * size)
-            cv2.line(image, start, end, BLACK, self._line + 2, cv2.LINE_AA)
-            cv2.line(image, start, end, CROSSHAIR, self._line, cv2.LINE_AA)
 
     def _trail(self, image: np.ndarray, points: list[np.ndarray]) -> None:
         if len(points) > 1:
@@ -175,6 +173,43 @@ class CompositeView:
 
     def close(self) -> None:
         self._renderer.close()
+
+
+def draw_marker(image: np.ndarray, target: np.ndarray, effector: np.ndarray, height: int) -> None:
+    """One marker's target (a crosshair) and detection (a circle), (u, v) panel pixels each, on
+    a panel ``height`` pixels high; NaN: not drawn. A detection on the target (:func:`reached`)
+    is drawn as one symbol, a green ring round a red dot."""
+    line = max(1, round(height * LINE_FRACTION))
+    seen, sensed = bool(np.all(np.isfinite(target))), bool(np.all(np.isfinite(effector)))
+    if seen and sensed and reached(target, effector, height):
+        centre, ring = _int(target), round(height * RING_FRACTION)
+        cv2.circle(image, centre, ring, BLACK, line + 2, cv2.LINE_AA)
+        cv2.circle(image, centre, ring, DETECTION, line, cv2.LINE_AA)
+        cv2.circle(image, centre, line + 2, BLACK, -1, cv2.LINE_AA)
+        cv2.circle(image, centre, line + 1, CROSSHAIR, -1, cv2.LINE_AA)
+        return
+    if seen:
+        _crosshair(image, target, height, line)
+    if sensed:
+        radius = round(height * CIRCLE_FRACTION)
+        cv2.circle(image, _int(effector), radius, BLACK, line + 2, cv2.LINE_AA)
+        cv2.circle(image, _int(effector), radius, DETECTION, line, cv2.LINE_AA)
+
+
+def _crosshair(image: np.ndarray, uv: np.ndarray, height: int, line: int) -> None:
+    u, v = _int(uv)
+    size, gap = round(height * CROSSHAIR_FRACTION), round(height * GAP_FRACTION)
+    for du, dv in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        start = (u + du * gap, v + dv * gap)
+        end = (u + du * size, v + dv * size)
+        cv2.line(image, start, end, BLACK, line + 2, cv2.LINE_AA)
+        cv2.line(image, start, end, CROSSHAIR, line, cv2.LINE_AA)
+
+
+def reached(target: np.ndarray, effector: np.ndarray, height: int) -> bool:
+    """Whether a detection (u, v panel pixels) lies inside its target's crosshair centre, on a
+    panel ``height`` pixels high: drawn as the target reached."""
+    return float(np.hypot(*(np.asarray(effector) - target))) <= height * REACHED_FRACTION
 
 
 def draw_inset(image: np.ndarray, centre: np.ndarray, text_scale: float) -> None:
