@@ -29,7 +29,8 @@ STOPPED_STYLE = {"marker": "X", "s": 90, "c": "black", "edgecolors": "white", "l
 #: The same in the error map, where the cross keeps its error colour inside a black outline.
 STOPPED_MAP_STYLE = {"marker": "X", "s": 110, "edgecolors": "black", "linewidths": 1.2}
 #: The end of an error arrow cut at the axes: an open black diamond.
-CUT_STYLE = {"marker": "D", "s": 40, "facecolors": "none", "edgecolors": "black", "linewidths": 1}
+CUT_STYLE = {"marker": "D", "s": 40, "facecolors": "none", "edgecolors": "black", "linewidths": 1,
+             "clip_on": False}  # fmt: skip
 #: Error arrows over this many times the median error do not set the axes (they are cut).
 FAR_FACTOR = 5.0
 AXES_MARGIN = 0.05  # of the larger side of the box round targets and arrows
@@ -160,7 +161,7 @@ def lattice_in_image_figure(
     fig, ax = plt.subplots(figsize=(6.4, 5.2), layout="constrained")
     ax.imshow(image)
     flat = grid.reshape(-1, 2)
-    ax.plot(flat[:, 0], flat[:, 1], ".", color="white", ms=2.0, alpha=0.6, label="all neurons")
+    ax.plot(flat[:, 0], flat[:, 1], ".", color="navy", ms=2.5, alpha=0.7, label="all neurons")
     for axis in range(edges.ndim - 1):
         lines = np.moveaxis(edges, axis, -2).reshape(-1, edges.shape[axis], 2)
         for k, line in enumerate(lines):
@@ -221,7 +222,7 @@ def error_vectors_figure(result: Evaluation, *, subject: str) -> Figure:
         ax.set_xlabel("xyz"[i] + " [m]")
         ax.set_ylabel("xyz"[j] + " [m]")
         ax.set_title(name)
-        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_aspect("equal", adjustable="box")  # the limits stay; the panel's shape gives
         if stopped.any() or far.any():
             ax.legend(loc="best", fontsize=8)
     fig.colorbar(quiver, ax=axes, label="error after the last move [mm]")
