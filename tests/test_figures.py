@@ -73,7 +73,7 @@ def test_learning_curve_has_a_line_per_move_and_a_point_per_evaluation():
         np.testing.assert_array_equal(line.get_ydata(), [r["mean_mm"][k] for r in rows])
     assert ax.get_yscale() == "log"
     assert ax.get_xlabel() == "training trials"
-    assert ax.get_ylabel() == "mean distance to target [mm]"
+    assert ax.get_ylabel() == "mean error [mm]"
     assert ax.get_title() == f"Learning curve: held-out evaluations during training\n{SUBJECT}"
     assert fig.get_layout_engine() is not None  # constrained: no label over another
 
@@ -91,7 +91,7 @@ def test_error_histogram_counts_every_trial_after_every_move(scripted):
     stopped = int((MOVES_MADE < 3).sum())
     title = f"Errors on 4 held-out targets ({stopped} stopped early, counted)\n{SUBJECT}"
     assert ax.get_title() == title
-    assert ax.get_xscale() == "log" and ax.get_xlabel() == "distance to target [mm]"
+    assert ax.get_xscale() == "log" and ax.get_xlabel() == "error [mm]"
     low, high = (
         ax.containers[0][0].get_x(),
         max(b.get_x() + b.get_width() for b in ax.containers[0]),

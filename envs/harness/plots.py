@@ -71,7 +71,7 @@ def learning_curve_figure(rows: list[dict], reach: float, *, subject: str) -> Fi
     for k in range(errors.shape[1]):
         ax.semilogy(trials, errors[:, k], marker="o", ms=3, label=f"after {_move_name(k)}")
     ax.set_xlabel("training trials")
-    ax.set_ylabel("mean distance to target [mm]")
+    ax.set_ylabel("mean error [mm]")  # error: the distance of the sensed point from the target
     secondary = ax.secondary_yaxis(
         "right", functions=(lambda mm: mm / (reach * 1e3) * 100, lambda p: p * reach * 1e3 / 100)
     )
@@ -103,7 +103,7 @@ def error_histogram_figure(result: Evaluation, *, subject: str) -> Figure | None
     for k in range(result.moves):
         ax.hist(np.maximum(mm[:, k], floor), bins=bins, alpha=0.55, label=_move_name(k))
     ax.set_xscale("log")
-    ax.set_xlabel("distance to target [mm]")
+    ax.set_xlabel("error [mm]")
     ax.set_ylabel("trials")
     ax.legend()
     stopped = int((~result.complete).sum())
