@@ -5,7 +5,10 @@ the panels may be drawn larger than the sensing images (pixels are scaled onto t
 overlay (target crosshair, detected marker, the trail of earlier detections, labels) is sized in
 proportion to the panel, so that it stays legible when the frame is shown at full-HD size. A
 marker detected on its target is drawn as one symbol, a green ring round a red dot, instead of a
-circle over a crosshair (whose crossing lines read as a glitch). Where
+circle over a crosshair (whose crossing lines read as a glitch); and a target sphere that the
+arm's marker (a sphere of the target's size) touches is drawn in these frames as a larger
+see-through shell, so that the marker inside it shows whole in red glass instead of as the
+speckle of two intersecting spheres (sensing renders are not changed). Where
 the arm is small in the camera images (the RIACS cameras see a large part of the unit cube), an
 inset magnifies the neighbourhood of the target.
 """
@@ -17,6 +20,7 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
+from envs.robots import PUMA_GRASP
 from envs.sensing.rendering import VISIBLE_GROUPS
 from envs.sensing.viewports import View, ViewportRenderer
 
@@ -41,6 +45,11 @@ TEXT_FRACTION = 1 / 480  # OpenCV font scale per pixel of panel height
 FRAME_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION")
 #: Grid spacing (m) the floor is drawn with (see ViewportRenderer's plane_grid).
 PLANE_GRID = 0.5
+#: The target's spheres (the reach task's, the grasp object's markers): one that an arm's marker
+#: sphere (:data:`MARKERS`) touches is drawn this much larger and with this opacity in the frames
+#: for people, so that the marker inside it shows through.
+SEE_THROUGH, TARGET_SCALE, TARGET_ALPHA = ("target", *PUMA_GRASP.target), 1.3, 0.35
+MARKERS = ("marker_wrist", "marker_tcp", *PUMA_GRASP.effector)  # the arms' marker spheres
 #: The zoom inset: magnification, and the side of the magnified square (fraction of the height).
 ZOOM, ZOOM_FRACTION = 3, 0.42
 
@@ -87,6 +96,10 @@ class CompositeView:
         )
         self._views = [View.whole(name, height, width) for name in PANELS]
         self._line = max(1, round(height * LINE_FRACTION))
+        names = [model.geom(i).name for i in range(model.ngeom)]
+        self._see_through = np.array([names.index(n) for n in SEE_THROUGH if n in names], int)
+        self._markers = np.array([names.index(n) for n in MARKERS if n in names], int)
+        self._model = model
         self._text = height * TEXT_FRACTION if text_scale is None else text_scale
 
     def to_panel(self, px: np.ndarray) -> np.ndarray:
@@ -121,7 +134,13 @@ class CompositeView:
             trail: earlier detections (4,) each of the first marker, joined by a line in their
                 order.
         """
-        images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
+        rgba, size, shells = self._model.geom_rgba, self._model.geom_size, self._touched(data)
+        opaque, radius = rgba[shells, 3].copy(), size[shells].copy()
+        rgba[shells, 3], size[shells] = TARGET_ALPHA, TARGET_SCALE * radius
+        try:
+            images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
+        finally:  # the model as it was: sensing renders see the targets as they are
+            rgba[shells, 3], size[shells] = opaque, radius
         panels = []
         for k, name in enumerate(PANELS[:2]):
             view = np.ascontiguousarray(images[k][0])
@@ -144,6 +163,17 @@ class CompositeView:
         self._label(overview, "overview")
         panels.append(overview)
         return panels
+
+    def _touched(self, data) -> np.ndarray:
+        """Ids of the target spheres that an arm's marker sphere intersects in ``data``."""
+        if not len(self._see_through) or not len(self._markers):
+            return self._see_through[:0]
+        gap = np.linalg.norm(
+            data.geom_xpos[self._see_through, None] - data.geom_xpos[None, self._markers], axis=-1
+        )  # (targets, markers) m between centres
+        size = self._model.geom_size
+        touching = gap < size[self._see_through, :1] + size[self._markers, 0][None]
+        return self._see_through[touching.any(axis=1)]
 
     def _trail(self, image: np.ndarray, points: list[np.ndarray]) -> None:
         if len(points) > 1:

@@ -75,3 +75,48 @@ def test_the_film_overlays_call_the_distance_error_while_moving_and_after():
     source = inspect.getsource(film.TrialFilm.trial)
     assert "distance {" not in source  # the quantity's one word in the overlay is "error"
     assert source.count("error {") == 2  # while moving and after the move
+
+
+def _colour_counts(image: np.ndarray) -> tuple[int, int]:
+    """Pixels of clear red and of clear green in an RGB image."""
+    return int(_near(image, RED).sum()), int(_near(image, GREEN).sum())
+
+
+@pytest.mark.parametrize("robot", ["riacs", "puma560"])
+def test_a_reached_target_is_a_glass_shell_not_a_speckle_of_two_spheres(robot, monkeypatch):
+    from envs.cli.controllers import make_controller
+    from envs.composite import CompositeView
+    from envs.reach import ReachEnv
+
+    env = ReachEnv(robot=robot, sensing="project", control="kinematic")
+    obs, info = env.reset(seed=3)
+    unseen = np.full(4, np.nan)  # no 2-D overlays: the rendered spheres alone
+    shells = composite.SEE_THROUGH
+
+    def panels(see_through: tuple[str, ...]) -> list[np.ndarray]:
+        monkeypatch.setattr(composite, "SEE_THROUGH", see_through)
+        view = CompositeView(env.model, HEIGHT, 320)
+        rgba, size = env.model.geom_rgba.copy(), env.model.geom_size.copy()
+        drawn = view.panels(env.data, unseen, unseen)
+        view.close()
+        # The model is as it was: sensing renders see the target unchanged.
+        np.testing.assert_array_equal(env.model.geom_rgba, rgba)
+        np.testing.assert_array_equal(env.model.geom_size, size)
+        return drawn
+
+    assert info["distance"] > 0.1  # at home, the marker far from the target
+    apart = panels(shells)
+    for image, plain in zip(apart, panels(()), strict=True):
+        np.testing.assert_array_equal(image, plain)  # an untouched target is drawn as it is
+    _, _, _, _, info = env.step(make_controller("analytic", env).act(obs["desired_goal"]))
+    assert info["distance"] < 1e-9  # the marker's sphere is the target's, same place and size
+
+    # Drawn as they are, the two coinciding spheres fight: red and green pixels side by side.
+    for image in panels(()):
+        red, green = _colour_counts(image)
+        assert red > 10 and green > 10
+    # As a larger see-through shell, the target holds the marker: no clear green pixel left.
+    for image in panels(shells):
+        red, green = _colour_counts(image)
+        assert red > 10 and green == 0
+    env.close()
