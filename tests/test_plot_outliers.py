@@ -85,7 +85,7 @@ def test_the_far_arrow_is_cut_at_the_axes_marked_and_counted():
         # The cut arrow keeps its direction (along +x) and ends on the right edge of the axes.
         assert arrows.U[-1] == pytest.approx(ax.get_xlim()[1] - start[0])
         assert arrows.V[-1] == pytest.approx(0.0, abs=1e-12)
-        np.testing.assert_allclose(end, start + [arrows.U[-1], arrows.V[-1]])
+        np.testing.assert_allclose(end, start + np.array([arrows.U[-1], arrows.V[-1]]))
         assert any("arrow cut" in t.get_text() for t in ax.get_legend().get_texts())
 
 
@@ -101,3 +101,26 @@ def test_without_far_trials_nothing_is_cut():
         marks = [c for c in ax.collections if c.get_label().startswith("arrow cut")]
         assert len(marks[0].get_offsets()) == 0
         assert ax.get_legend() is None  # nothing stopped, nothing cut: no legend
+
+
+def test_the_lattice_plot_draws_one_layer_and_refuses_a_layer_outside_the_lattice():
+    lattice = (4, 3, 5)
+    w = np.random.default_rng(2).uniform(0, 100, (60, 4))
+    image = np.zeros((120, 160, 3))
+    ax = plots.lattice_in_image_figure(w, lattice, image, layer=4, subject=SUBJECT).axes[0]
+    neurons, *edges = ax.get_lines()
+    assert len(neurons.get_xdata()) == 60  # every neuron a dot
+    # Layer 4 (the last) of the last axis: 3 lines of 4 points and 4 lines of 3 points.
+    assert sorted(len(e.get_xdata()) for e in edges) == [3] * 4 + [4] * 3
+    layer = w.reshape(4, 3, 5, 4)[:, :, 4, :2].reshape(-1, 2)
+    drawn = np.concatenate([np.column_stack([e.get_xdata(), e.get_ydata()]) for e in edges])
+    assert {tuple(p) for p in drawn} == {tuple(p) for p in layer}
+    with pytest.raises(ValueError, match=r"layer 5 is not in 0\.\.4 of lattice 4x3x5"):
+        plots.lattice_in_image_figure(w, lattice, image, layer=5, subject=SUBJECT)
+
+
+def test_a_two_axis_lattice_draws_every_edge():
+    w = np.arange(6 * 4, dtype=float).reshape(6, 4)
+    ax = plots.lattice_in_image_figure(w, (3, 2), np.zeros((40, 40, 3)), subject=SUBJECT).axes[0]
+    _, *edges = ax.get_lines()
+    assert sorted(len(e.get_xdata()) for e in edges) == [2, 2, 2, 3, 3]
