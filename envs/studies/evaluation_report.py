@@ -31,16 +31,19 @@ def format_table(rows: list[dict]) -> str:
     every trial (a trial that stopped counts where it stopped), and the complete trials."""
     moves = len(rows[0]["mean_mm"])
     names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
-    head = f"{'controller':<18}" + "".join(f"{n + ' [mm]':>14}" for n in names)
-    head += f"{'last median':>12}{'last p95':>10}{'last [% reach]':>16}{'last [px]':>11}"
-    head += f"{'us/query':>10}{'complete':>10}"
+    width = max(len("controller"), *(len(r["controller"]) for r in rows)) + 2
+    head = f"{'controller':<{width}}" + "".join(f"{n + ' [mm]':>13}" for n in names)
+    head += f"{'median':>8}{'p95':>8}{'% reach':>9}{'px':>7}{'us/query':>10}{'complete':>10}"
     lines = [head, "-" * len(head)]
     for r in rows:
-        line = f"{r['controller']:<18}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
-        line += f"{r['median_mm'][-1]:>12.3f}{r['p95_mm'][-1]:>10.3f}"
-        line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
+        line = f"{r['controller']:<{width}}" + "".join(f"{e:>13.3f}" for e in r["mean_mm"])
+        line += f"{r['median_mm'][-1]:>8.3f}{r['p95_mm'][-1]:>8.3f}"
+        line += f"{r['mean_percent_reach'][-1]:>9.4f}{r['mean_px'][-1]:>7.3f}"
         line += f"{r['microseconds_per_query']:>10.1f}{r['complete_fraction'] * 100:>9.1f}%"
         lines.append(line)
+    lines.append(
+        f"[mm]: mean error after each move; median, p95 (mm), % reach, px: after {names[-1]}"
+    )
     for r in rows:
         if "recovered_trials" in r:
             lines.append(
