@@ -4,8 +4,9 @@ RiacsReach-v0, PumaReach-v0 and PumaGrasp-v0 show the learned map: each is train
 (``scripts/train.py``'s idealised setting, :data:`TRAINING_TRIALS` trials, --seed; seconds on the
 reach envs, under a minute on the grasp env), then filmed on held-out targets with servo control
 and foveated sensing (a coarse move and fine moves), both camera views and the overview.
-PumaTrack-v0: the overview of the PUMA following a path with the exact inverse Jacobian (the
-reference the learned NATEnet is measured against), the path and the tool's trace drawn. The
+PumaTrack-v0: the overview of the PUMA following a held-out circle with NATEnet, trained here
+as ``scripts/train_natenet.py`` trains it (its default paths, --seed), the path and the tool's
+trace drawn. The
 overlay text is large for the GIFs' size, so that it reads on the pages that show them scaled
 down. Each file stays under 2 MB.
 
@@ -32,6 +33,7 @@ from envs.harness.grasp_film import GraspFilm
 from envs.harness.streams import seed_env
 from envs.harness.video import annotate
 from envs.reach import REACH_ENV_IDS
+from learners.natenet import PathTracker
 from learners.persistence import write_atomic
 
 GIF_FPS = 12.0  # frames per second of the animations
@@ -82,20 +84,48 @@ def map_frames(env_id: str, checkpoint: Path, trials: int, seed: int) -> list[np
     return frames
 
 
-def track_frames(seed: int, every: int = 2) -> list[np.ndarray]:
-    """Every ``every``-th overview frame of one PumaTrack-v0 path tracked exactly."""
-    from envs.harness.tracking import exact_inverse_jacobian, track_episode
-    from learners.natenet import PathTracker
+def trained_tracker(seed: int) -> tuple[PathTracker, int]:
+    """NATEnet trained as ``scripts/train_natenet.py`` trains it (its defaults: the training
+    paths, exploration and input of :class:`~envs.studies.natenet_tracking.TrackingStudy`), as a
+    path tracker, and its node count."""
+    from envs.harness.tracking import train_on_paths
+    from envs.studies.natenet_tracking import TRAIN_SEEDS, TrackingStudy
+    from envs.track import PumaTrackEnv
+    from learners.natenet import NATEnet
 
-    env = gym.make("PumaTrack-v0", render_mode="rgb_array")
-    result = track_episode(env, PathTracker(exact_inverse_jacobian), seed=seed, record=True)
+    study = TrackingStudy(out=Path("."), seed=seed)
+    env = PumaTrackEnv(sensing=study.sensing, path_kind="any")
+    net = NATEnet(input_dim=study.input_dim, max_nodes=study.max_nodes)
+    paths = seed * 10_000 + TRAIN_SEEDS + np.arange(study.train_paths)
+    rng = np.random.default_rng(seed)
+    train_on_paths(env, net, paths, study.exploration, rng, study.gain)
+    env.close()
+    print(f"trained NATEnet on {study.train_paths} paths: {net.n_nodes} nodes")
+    return PathTracker.from_net(net, study.gain), net.n_nodes
+
+
+def track_frames(seed: int, every: int = 2) -> list[np.ndarray]:
+    """Every ``every``-th overview frame of one held-out PumaTrack-v0 path (a test circle of
+    ``scripts/train_natenet.py``) tracked by the NATEnet of :func:`trained_tracker`."""
+    from envs.harness.tracking import track_episode
+    from envs.studies.natenet_tracking import CIRCLE_SEEDS, TEST_RADIUS
+
+    tracker, nodes = trained_tracker(seed)
+    env = gym.make(
+        "PumaTrack-v0", render_mode="rgb_array", path_kind="circle", circle_radius=TEST_RADIUS
+    )
+    result = track_episode(env, tracker, seed=CIRCLE_SEEDS + seed * 10_000, record=True)
     env.close()
     frames = result.frames[::every]
     height = round(frames[0].shape[0] * TRACK_WIDTH / frames[0].shape[1])
-    lines = ["PumaTrack-v0   exact inverse Jacobian"]
+    errors = np.concatenate([[0.0], result.position_errors])[::every]  # m, after each step
     return [
-        annotate(cv2.resize(f, (TRACK_WIDTH, height), interpolation=cv2.INTER_AREA), lines, 0.5)
-        for f in frames
+        annotate(
+            cv2.resize(f, (TRACK_WIDTH, height), interpolation=cv2.INTER_AREA),
+            [f"PumaTrack-v0   learned NATEnet ({nodes} nodes)", f"error {1e3 * e:.2f} mm"],
+            TEXT_SCALE * TRACK_WIDTH / (3 * GIF_PANEL[0]) * 1.4,
+        )
+        for f, e in zip(frames, errors, strict=True)
     ]
 
 
