@@ -3,7 +3,12 @@
 Sensing happens in small images (320×240 by default), but people watch frames on large screens:
 the panels may be drawn larger than the sensing images (pixels are scaled onto them), and every
 overlay (target crosshair, detected marker, the trail of earlier detections, labels) is sized in
-proportion to the panel, so that it stays legible when the frame is shown at full-HD size. Where
+proportion to the panel, so that it stays legible when the frame is shown at full-HD size. A
+marker detected on its target is drawn as one symbol, a green ring round a red dot, instead of a
+circle over a crosshair (whose crossing lines read as a glitch); and a target sphere that the
+arm's marker (a sphere of the target's size) touches is drawn in these frames as a larger
+see-through shell, so that the marker inside it shows whole in red glass instead of as the
+speckle of two intersecting spheres (sensing renders are not changed). Where
 the arm is small in the camera images (the RIACS cameras see a large part of the unit cube), an
 inset magnifies the neighbourhood of the target.
 """
@@ -15,6 +20,7 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
+from envs.robots import PUMA_GRASP
 from envs.sensing.rendering import VISIBLE_GROUPS
 from envs.sensing.viewports import View, ViewportRenderer
 
@@ -28,6 +34,10 @@ FONT = cv2.FONT_HERSHEY_SIMPLEX
 CROSSHAIR_FRACTION = 0.06  # half-length of a crosshair arm
 GAP_FRACTION = 0.025  # free centre of the crosshair, so that the target shows
 CIRCLE_FRACTION = 0.03  # radius of the detection circle
+#: A detection this close to its target (panel pixels, as a fraction of the height) is drawn as
+#: the target reached: the crosshair's free centre, inside which circle and crosshair would cross.
+REACHED_FRACTION = 0.025
+RING_FRACTION = 0.045  # radius of the reached target's ring
 LINE_FRACTION = 1 / 240  # line thickness
 TEXT_FRACTION = 1 / 480  # OpenCV font scale per pixel of panel height
 #: Render flags turned off: shadows and reflections make a frame several times slower to draw
@@ -35,6 +45,11 @@ TEXT_FRACTION = 1 / 480  # OpenCV font scale per pixel of panel height
 FRAME_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION")
 #: Grid spacing (m) the floor is drawn with (see ViewportRenderer's plane_grid).
 PLANE_GRID = 0.5
+#: The target's spheres (the reach task's, the grasp object's markers): one that an arm's marker
+#: sphere (:data:`MARKERS`) touches is drawn this much larger and with this opacity in the frames
+#: for people, so that the marker inside it shows through.
+SEE_THROUGH, TARGET_SCALE, TARGET_ALPHA = ("target", *PUMA_GRASP.target), 1.3, 0.35
+MARKERS = ("marker_wrist", "marker_tcp", *PUMA_GRASP.effector)  # the arms' marker spheres
 #: The zoom inset: magnification, and the side of the magnified square (fraction of the height).
 ZOOM, ZOOM_FRACTION = 3, 0.42
 
@@ -53,6 +68,8 @@ class CompositeView:
         sensing_size: (width, height) of the sensing images whose pixel coordinates
             :meth:`render` receives; default: the panel size.
         zoom: draw an inset magnifying the target's neighbourhood in each camera view.
+        text_scale: OpenCV font scale of the panels' labels (default: in proportion to the
+            height, :data:`TEXT_FRACTION`); larger for a frame shown small, as in the docs' GIFs.
     """
 
     def __init__(
@@ -62,6 +79,7 @@ class CompositeView:
         width: int,
         sensing_size: tuple[int, int] | None = None,
         zoom: bool = False,
+        text_scale: float | None = None,
     ) -> None:
         self.height, self.width, self.zoom = height, width, zoom
         sensing_width = width if sensing_size is None else sensing_size[0]
@@ -78,7 +96,11 @@ class CompositeView:
         )
         self._views = [View.whole(name, height, width) for name in PANELS]
         self._line = max(1, round(height * LINE_FRACTION))
-        self._text = height * TEXT_FRACTION
+        names = [model.geom(i).name for i in range(model.ngeom)]
+        self._see_through = np.array([names.index(n) for n in SEE_THROUGH if n in names], int)
+        self._markers = np.array([names.index(n) for n in MARKERS if n in names], int)
+        self._model = model
+        self._text = height * TEXT_FRACTION if text_scale is None else text_scale
 
     def to_panel(self, px: np.ndarray) -> np.ndarray:
         """Sensing-image pixel coordinates (any shape) -> panel pixel coordinates (centres of
@@ -112,7 +134,13 @@ class CompositeView:
             trail: earlier detections (4,) each of the first marker, joined by a line in their
                 order.
         """
-        images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
+        rgba, size, shells = self._model.geom_rgba, self._model.geom_size, self._touched(data)
+        opaque, radius = rgba[shells, 3].copy(), size[shells].copy()
+        rgba[shells, 3], size[shells] = TARGET_ALPHA, TARGET_SCALE * radius
+        try:
+            images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
+        finally:  # the model as it was: sensing renders see the targets as they are
+            rgba[shells, 3], size[shells] = opaque, radius
         panels = []
         for k, name in enumerate(PANELS[:2]):
             view = np.ascontiguousarray(images[k][0])
@@ -122,13 +150,11 @@ class CompositeView:
             self._trail(view, points)
             for first in range(0, len(target_px), 4):  # each marker: 4 pixels
                 marker = slice(first + 2 * k, first + 2 * k + 2)
-                target = self.to_panel(target_px[marker])
-                if np.all(np.isfinite(target)):
-                    self._crosshair(view, target)
-                effector = self.to_panel(effector_px[marker])
-                if np.all(np.isfinite(effector)):
-                    radius = round(self.height * CIRCLE_FRACTION)
-                    cv2.circle(view, _int(effector), radius, DETECTION, self._line, cv2.LINE_AA)
+                target, effector = (
+                    self.to_panel(target_px[marker]),
+                    self.to_panel(effector_px[marker]),
+                )
+                draw_marker(view, target, effector, self.height)
             target = self.to_panel(target_px[pick])
             if self.zoom and np.all(np.isfinite(target)):
                 draw_inset(view, target, self._text)
@@ -138,14 +164,16 @@ class CompositeView:
         panels.append(overview)
         return panels
 
-    def _crosshair(self, image: np.ndarray, uv: np.ndarray) -> None:
-        u, v = _int(uv)
-        size, gap = round(self.height * CROSSHAIR_FRACTION), round(self.height * GAP_FRACTION)
-        for du, dv in ((1, 0), (-1, 0), (0, 1), (0, -1)):
-            start = (u + du * gap, v + dv * gap)
-            end = (u + du * size, v + dv * size)
-            cv2.line(image, start, end, BLACK, self._line + 2, cv2.LINE_AA)
-            cv2.line(image, start, end, CROSSHAIR, self._line, cv2.LINE_AA)
+    def _touched(self, data) -> np.ndarray:
+        """Ids of the target spheres that an arm's marker sphere intersects in ``data``."""
+        if not len(self._see_through) or not len(self._markers):
+            return self._see_through[:0]
+        gap = np.linalg.norm(
+            data.geom_xpos[self._see_through, None] - data.geom_xpos[None, self._markers], axis=-1
+        )  # (targets, markers) m between centres
+        size = self._model.geom_size
+        touching = gap < size[self._see_through, :1] + size[self._markers, 0][None]
+        return self._see_through[touching.any(axis=1)]
 
     def _trail(self, image: np.ndarray, points: list[np.ndarray]) -> None:
         if len(points) > 1:
@@ -175,6 +203,43 @@ class CompositeView:
 
     def close(self) -> None:
         self._renderer.close()
+
+
+def draw_marker(image: np.ndarray, target: np.ndarray, effector: np.ndarray, height: int) -> None:
+    """One marker's target (a crosshair) and detection (a circle), (u, v) panel pixels each, on
+    a panel ``height`` pixels high; NaN: not drawn. A detection on the target (:func:`reached`)
+    is drawn as one symbol, a green ring round a red dot."""
+    line = max(1, round(height * LINE_FRACTION))
+    seen, sensed = bool(np.all(np.isfinite(target))), bool(np.all(np.isfinite(effector)))
+    if seen and sensed and reached(target, effector, height):
+        centre, ring = _int(target), round(height * RING_FRACTION)
+        cv2.circle(image, centre, ring, BLACK, line + 2, cv2.LINE_AA)
+        cv2.circle(image, centre, ring, DETECTION, line, cv2.LINE_AA)
+        cv2.circle(image, centre, line + 2, BLACK, -1, cv2.LINE_AA)
+        cv2.circle(image, centre, line + 1, CROSSHAIR, -1, cv2.LINE_AA)
+        return
+    if seen:
+        _crosshair(image, target, height, line)
+    if sensed:
+        radius = round(height * CIRCLE_FRACTION)
+        cv2.circle(image, _int(effector), radius, BLACK, line + 2, cv2.LINE_AA)
+        cv2.circle(image, _int(effector), radius, DETECTION, line, cv2.LINE_AA)
+
+
+def _crosshair(image: np.ndarray, uv: np.ndarray, height: int, line: int) -> None:
+    u, v = _int(uv)
+    size, gap = round(height * CROSSHAIR_FRACTION), round(height * GAP_FRACTION)
+    for du, dv in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        start = (u + du * gap, v + dv * gap)
+        end = (u + du * size, v + dv * size)
+        cv2.line(image, start, end, BLACK, line + 2, cv2.LINE_AA)
+        cv2.line(image, start, end, CROSSHAIR, line, cv2.LINE_AA)
+
+
+def reached(target: np.ndarray, effector: np.ndarray, height: int) -> bool:
+    """Whether a detection (u, v panel pixels) lies inside its target's crosshair centre, on a
+    panel ``height`` pixels high: drawn as the target reached."""
+    return float(np.hypot(*(np.asarray(effector) - target))) <= height * REACHED_FRACTION
 
 
 def draw_inset(image: np.ndarray, centre: np.ndarray, text_scale: float) -> None:

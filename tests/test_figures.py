@@ -73,7 +73,7 @@ def test_learning_curve_has_a_line_per_move_and_a_point_per_evaluation():
         np.testing.assert_array_equal(line.get_ydata(), [r["mean_mm"][k] for r in rows])
     assert ax.get_yscale() == "log"
     assert ax.get_xlabel() == "training trials"
-    assert ax.get_ylabel() == "mean distance to target [mm]"
+    assert ax.get_ylabel() == "mean error [mm]"
     assert ax.get_title() == f"Learning curve: held-out evaluations during training\n{SUBJECT}"
     assert fig.get_layout_engine() is not None  # constrained: no label over another
 
@@ -91,7 +91,7 @@ def test_error_histogram_counts_every_trial_after_every_move(scripted):
     stopped = int((MOVES_MADE < 3).sum())
     title = f"Errors on 4 held-out targets ({stopped} stopped early, counted)\n{SUBJECT}"
     assert ax.get_title() == title
-    assert ax.get_xscale() == "log" and ax.get_xlabel() == "distance to target [mm]"
+    assert ax.get_xscale() == "log" and ax.get_xlabel() == "error [mm]"
     low, high = (
         ax.containers[0][0].get_x(),
         max(b.get_x() + b.get_width() for b in ax.containers[0]),
@@ -122,8 +122,12 @@ def test_error_vectors_draw_an_arrow_per_trial_from_target_to_end_point(scripted
     for ax in panels:
         arrows = next(c for c in ax.collections if isinstance(c, matplotlib.quiver.Quiver))
         assert len(arrows.U) == len(DISTANCES)
-        np.testing.assert_allclose(arrows.U, gain * ended)
-        np.testing.assert_allclose(arrows.V, gain * ended)
+        # Trial 3 (0.2 m, over 5x the median error) is cut at the axes, keeping its direction.
+        bulk = np.arange(4) != 3
+        np.testing.assert_allclose(arrows.U[bulk], gain * ended[bulk])
+        np.testing.assert_allclose(arrows.V, arrows.U)
+        assert 0 < arrows.U[3] < gain * ended[3]
+        assert arrows.U[3] == pytest.approx(ax.get_xlim()[1])  # the target is at 0
         np.testing.assert_allclose(arrows.get_array(), ended * math.sqrt(3) * 1e3)
         crosses = next(c for c in ax.collections if c.get_label() == "stopped early")
         assert len(crosses.get_offsets()) == stopped.sum()
@@ -162,9 +166,12 @@ def test_lattice_in_image_draws_every_lattice_edge_through_the_chosen_camera():
     image = np.zeros((50, 60, 3))
     ax = plots.lattice_in_image_figure(w, lattice, image, camera=1, subject=SUBJECT).axes[0]
     assert ax.get_title() == f"Lattice 3x2x2 in camera right\n{SUBJECT}"
-    *edges, neurons = ax.get_lines()
-    # Lines along axis a: one per point of the other two axes, with lattice[a] points each.
-    assert sorted(len(e.get_xdata()) for e in edges) == sorted([3] * 4 + [2] * 6 + [2] * 6)
+    neurons, *edges = ax.get_lines()
+    # One layer (the middle, index 1 of the last axis) has edges: along axis 0 one line per
+    # point of axis 1 (2 lines of 3 points), along axis 1 one per point of axis 0 (3 of 2).
+    assert sorted(len(e.get_xdata()) for e in edges) == [2, 2, 2, 3, 3]
+    layer = {tuple(p) for p in w.reshape(3, 2, 2, 4)[:, :, 1, 2:4].reshape(-1, 2)}
+    assert {tuple(p) for e in edges for p in _points(e)} == layer
     np.testing.assert_array_equal(_points(neurons), w[:, 2:4])  # right camera: columns 2, 3
     assert ax.get_xlim() == (0, 60) and ax.get_ylim() == (50, 0)
 

@@ -46,8 +46,10 @@ def test_evaluate_gives_position_and_orientation_beside_the_floor(run, tmp_path,
     som, floor, jacobian = summary["controllers"]
     assert [som["controller"], floor["controller"]] == ["hierarchical som", "pose_ik"]
     assert "pose_jacobian" in text
-    header = next(r for r in text.splitlines() if r.startswith("controller"))
-    assert header.split()[:5] == ["controller", "move", "mean", "mm", "%"] and ">1mm|1deg" in header
+    heads = [r for r in text.splitlines() if r.startswith("controller")]
+    assert [h.split()[:4] for h in heads] == [["controller", "move", "mean", "[mm]"],
+                                              ["controller", "move", "mean", "[deg]"]]  # fmt: skip
+    assert ">1mm|1deg" in heads[1] and max(len(r) for r in text.splitlines()) <= 100
     for row in (floor, jacobian):  # exact projection, exact IK: no error at all
         assert max(row["mean_mm"]) < 1e-6 and max(row["mean_deg"]) < 1e-6
     assert som["mean_mm"][-1] > 1e-3 and som["mean_deg"][-1] > 1e-3
@@ -56,16 +58,15 @@ def test_evaluate_gives_position_and_orientation_beside_the_floor(run, tmp_path,
         som["mean_percent_reach"], np.array(som["mean_mm"]) / (10 * ARM_REACH), rtol=1e-3
     )
     lines = text.splitlines()
-    at = next(i for i, r in enumerate(lines) if r.startswith("hierarchical som"))
-    for k, line in enumerate(lines[at : at + 4]):  # coarse, then fine 1-3: one line each
-        cells = line.split()[-8:]  # mean mm, %, deg, the two medians, tail, max mm, max deg
-        assert (
-            cells[0] == f"{som['mean_mm'][k]:.3f}"
-            and cells[1] == f"{som['mean_percent_reach'][k]:.4f}"
-        )
-        assert cells[2] == f"{som['mean_deg'][k]:.3f}"
-        assert cells[5] == f"{100 * som['tail_fraction'][k]:.2f}%"
-    assert lines[at + 3].split()[-10:-8] == ["fine", "3"]
+    starts = [i for i, r in enumerate(lines) if r.startswith("hierarchical som ")]
+    position, orientation = starts  # its first line in each table
+    for k in range(4):  # coarse, then fine 1-3: one line each in both tables
+        cells = lines[position + k].split()[-4:]  # mean mm, % reach, median mm, max mm
+        assert cells[:2] == [f"{som['mean_mm'][k]:.3f}", f"{som['mean_percent_reach'][k]:.4f}"]
+        cells = lines[orientation + k].split()[-4:]  # mean deg, median deg, max deg, tail
+        assert cells[0] == f"{som['mean_deg'][k]:.3f}"
+        assert cells[3] == f"{100 * som['tail_fraction'][k]:.2f}%"
+    assert lines[position + 3].split()[-6:-4] == ["fine", "3"]
     assert json.loads((tmp_path / "evaluation.json").read_text())["env"] == "PumaGrasp-v0"
     assert not list(tmp_path.glob("*.png"))  # the reach plots do not apply
 

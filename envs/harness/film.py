@@ -7,7 +7,8 @@ a filmed trial gives the same numbers as one that is not filmed. A kinematic mov
 to film (the joints are set): it is shown as a short linear interpolation of the joints, drawn
 in a scratch copy of the state and marked as such in the overlay. After every move the frame
 holds for a moment with the detected marker, the trail of the marker's detections so far and
-the error in mm.
+the error in mm: the ground-truth distance of the sensed point from the target, called "error"
+in every overlay, during the move as after it.
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ class TrialFilm:
         panel: (width, height) of each of the three panels.
         zoom: magnify the target's neighbourhood in the camera views (default: for a robot whose
             arm is small in its cameras, :attr:`envs.robots.RobotSpec.magnify`: RIACS).
+        text_scale: OpenCV font scale of every overlay's text (default: in proportion to the
+            panel height); larger for frames shown small, as the docs' GIFs are.
     """
 
     def __init__(
@@ -58,12 +61,16 @@ class TrialFilm:
         speed: float = 1.0,
         panel: tuple[int, int] = FILM_PANEL,
         zoom: bool | None = None,
+        text_scale: float | None = None,
     ) -> None:
         self.env, self.base, self.title = env, env.unwrapped, title
         self.fps, self.speed = fps, speed
         zoom = ROBOTS[self.base.robot].magnify if zoom is None else zoom
         sensing_size = (self.base.image_width, self.base.image_height)
-        self.view = CompositeView(self.base.model, panel[1], panel[0], sensing_size, zoom)
+        self.view = CompositeView(
+            self.base.model, panel[1], panel[0], sensing_size, zoom, text_scale
+        )
+        self.text_scale = panel[1] / 600 if text_scale is None else text_scale
         self._scratch = mujoco.MjData(self.base.model)  # interpolated kinematic poses
 
     def trial(self, controller: Controller, fine_moves: int, label: str) -> tuple[Trial, Stages]:
@@ -85,7 +92,7 @@ class TrialFilm:
             state["next"] += self.speed / self.fps
             trial = trial_box[0]
             distance = self._distance(self.base.data, trial)
-            status = f"moving, t = {elapsed:.2f} s   distance {distance * MM_PER_M:.1f} mm"
+            status = f"moving, t = {elapsed:.2f} s   error {distance * MM_PER_M:.1f} mm"
             moving.append(self._frame(self.base.data, trial, label, state["k"], status, False))
 
         def on_move(k: int, trial: Trial) -> None:
@@ -141,9 +148,9 @@ class TrialFilm:
         trail = trial.sensed_px[:made]
         effector = trail[-1] if sensed and trail else np.full(4, np.nan)
         image = self.view.render(data, trial.target_px, effector, trail)
-        stage = "target" if k < 0 else move_name(k)
-        lines = [self.title, f"{label}   {stage}   {status}"]
-        return annotate(image, lines, scale=self.view.height / 600)
+        stage = "" if k < 0 else move_name(k)  # k < 0: the status says "new target"
+        lines = [self.title, "   ".join(part for part in (label, stage, status) if part)]
+        return annotate(image, lines, scale=self.text_scale)
 
     def close(self) -> None:
         self.view.close()

@@ -28,6 +28,12 @@ MOVE_NAMES = ("coarse", "fine 1", "fine 2", "fine 3", "fine 4")
 STOPPED_STYLE = {"marker": "X", "s": 90, "c": "black", "edgecolors": "white", "linewidths": 0.8}
 #: The same in the error map, where the cross keeps its error colour inside a black outline.
 STOPPED_MAP_STYLE = {"marker": "X", "s": 110, "edgecolors": "black", "linewidths": 1.2}
+#: The end of an error arrow cut at the axes: an open black diamond.
+CUT_STYLE = {"marker": "D", "s": 40, "facecolors": "none", "edgecolors": "black", "linewidths": 1,
+             "clip_on": False}  # fmt: skip
+#: Error arrows over this many times the median error do not set the axes (they are cut).
+FAR_FACTOR = 5.0
+AXES_MARGIN = 0.05  # of the larger side of the box round targets and arrows
 #: The three projections of the workspace: (horizontal axis, vertical axis, name).
 PROJECTIONS = ((0, 1, "x-y"), (0, 2, "x-z"), (1, 2, "y-z"))
 
@@ -65,7 +71,7 @@ def learning_curve_figure(rows: list[dict], reach: float, *, subject: str) -> Fi
     for k in range(errors.shape[1]):
         ax.semilogy(trials, errors[:, k], marker="o", ms=3, label=f"after {_move_name(k)}")
     ax.set_xlabel("training trials")
-    ax.set_ylabel("mean distance to target [mm]")
+    ax.set_ylabel("mean error [mm]")  # error: the distance of the sensed point from the target
     secondary = ax.secondary_yaxis(
         "right", functions=(lambda mm: mm / (reach * 1e3) * 100, lambda p: p * reach * 1e3 / 100)
     )
@@ -97,7 +103,7 @@ def error_histogram_figure(result: Evaluation, *, subject: str) -> Figure | None
     for k in range(result.moves):
         ax.hist(np.maximum(mm[:, k], floor), bins=bins, alpha=0.55, label=_move_name(k))
     ax.set_xscale("log")
-    ax.set_xlabel("distance to target [mm]")
+    ax.set_xlabel("error [mm]")
     ax.set_ylabel("trials")
     ax.legend()
     stopped = int((~result.complete).sum())
@@ -122,31 +128,52 @@ def lattice_in_image(
 
 
 def lattice_in_image_figure(
-    w: np.ndarray, lattice: tuple[int, ...], image: np.ndarray, camera: int = 0, *, subject: str
+    w: np.ndarray,
+    lattice: tuple[int, ...],
+    image: np.ndarray,
+    camera: int = 0,
+    layer: int | None = None,
+    *,
+    subject: str,
 ) -> Figure:
-    """The neurons' w_r in one camera's image with lattice edges, as in Kohonen's Fig. 3b.
+    """The neurons' w_r in one camera's image, as in Kohonen's Fig. 3b: every neuron a dot, and
+    the edges of one layer of the lattice (all edges of a lattice of one or two axes): the
+    layers of a 3-D lattice drawn together are a tangle that shows nothing.
 
     Args:
         w: the neurons' camera coordinates (neurons, 4) pixels, C order over ``lattice``.
         lattice: the lattice shape.
         image: the camera image (height, width, 3) drawn beneath.
         camera: 0 left (columns 0, 1 of ``w``), 1 right (columns 2, 3).
+        layer: the index along the lattice's last axis of the layer drawn with edges (default:
+            the middle one).
     """
     grid = w.reshape(*lattice, -1)[..., 2 * camera : 2 * camera + 2]  # (*lattice, 2) pixels
+    shape = "x".join(map(str, lattice))
+    if len(lattice) >= 3:
+        layer = lattice[-1] // 2 if layer is None else layer
+        if not 0 <= layer < lattice[-1]:
+            raise ValueError(f"layer {layer} is not in 0..{lattice[-1] - 1} of lattice {shape}")
+        edges = grid[..., layer, :]  # (*lattice[:-1], 2)
+        drawn = f"edges of layer {layer + 1} of {lattice[-1]} along the last axis"
+    else:
+        edges, drawn = grid, "edges"
     fig, ax = plt.subplots(figsize=(6.4, 5.2), layout="constrained")
-    ax.imshow(image, alpha=0.55)
-    for axis in range(len(lattice)):
-        lines = np.moveaxis(grid, axis, -2).reshape(-1, lattice[axis], 2)
-        for line in lines:
-            ax.plot(line[:, 0], line[:, 1], "-", color="tab:blue", lw=0.6, alpha=0.8)
+    ax.imshow(image)
     flat = grid.reshape(-1, 2)
-    ax.plot(flat[:, 0], flat[:, 1], ".", color="navy", ms=2.5)
+    ax.plot(flat[:, 0], flat[:, 1], ".", color="navy", ms=2.5, alpha=0.7, label="all neurons")
+    for axis in range(edges.ndim - 1):
+        lines = np.moveaxis(edges, axis, -2).reshape(-1, edges.shape[axis], 2)
+        for k, line in enumerate(lines):
+            label = drawn if axis == 0 and k == 0 else None
+            ax.plot(line[:, 0], line[:, 1], "-", color="tab:orange", lw=0.8, label=label)
     ax.set_xlim(0, image.shape[1])
     ax.set_ylim(image.shape[0], 0)
     ax.set_xlabel("u [px]")
     ax.set_ylabel("v [px]")
+    ax.legend(loc="lower right", fontsize=8)
     side = "left" if camera == 0 else "right"
-    ax.set_title(f"Lattice {'x'.join(map(str, lattice))} in camera {side}\n{subject}", fontsize=10)
+    ax.set_title(f"Lattice {shape} in camera {side}\n{subject}", fontsize=10)
     return fig
 
 
@@ -160,33 +187,65 @@ def error_vectors_figure(result: Evaluation, *, subject: str) -> Figure:
     to the end point (after the last move, or where the trial stopped), magnified by one factor
     for all (stated in the title) so that millimetre errors show on a workspace of decimetres,
     coloured by the error (mm, log scale); trials that stopped early are marked by crosses.
+
+    The axes are set by the targets and the arrows of the bulk of the trials: an arrow whose
+    error is over :data:`FAR_FACTOR` times the median (a trial stopped far off, a wild move) is
+    cut where it leaves the axes and its cut end marked, the count in the legend, so that a few
+    far points do not squash the rest into a corner.
     """
     t, reached = result.target_pos, result.reached  # (n, 3) m each
     error = reached - t  # (n, 3) m
-    mm = np.maximum(np.linalg.norm(error, axis=1) * 1e3, 1e-3)  # log colour scale: 1 µm floor
+    norms = np.linalg.norm(error, axis=1)  # m
+    mm = np.maximum(norms * 1e3, 1e-3)  # log colour scale: 1 µm floor
     span = float(np.ptp(t, axis=0).max()) or 1.0  # m
-    typical = float(np.median(np.linalg.norm(error, axis=1)))  # m
+    typical = float(np.median(norms))  # m
     gain = _round_gain(0.06 * span / typical) if typical > 0 else 1.0
+    far = norms > FAR_FACTOR * typical if typical > 0 else np.zeros(len(t), dtype=bool)
     stopped = ~result.complete
     norm = matplotlib.colors.LogNorm(vmin=mm.min(), vmax=max(mm.max(), mm.min() * 1.01))
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.6), layout="constrained")
     for ax, (i, j, name) in zip(axes, PROJECTIONS, strict=True):
-        arrows = ax.quiver(
-            t[:, i], t[:, j], gain * error[:, i], gain * error[:, j], mm,
+        arrows = gain * error[:, [i, j]]  # (n, 2) m
+        low, high = _bulk_limits(t[:, [i, j]], t[~far][:, [i, j]] + arrows[~far])
+        shown = arrows * _cut(t[:, [i, j]], arrows, low, high)[:, None]
+        quiver = ax.quiver(
+            t[:, i], t[:, j], shown[:, 0], shown[:, 1], mm,
             cmap="viridis", norm=norm, angles="xy", scale_units="xy", scale=1, width=0.004,
         )  # fmt: skip
-        tips = t[:, [i, j]] + gain * error[:, [i, j]]  # (n, 2) m: the axes show whole arrows
-        ax.update_datalim(tips)
+        cut = far & np.any(np.abs(shown - arrows) > 1e-12, axis=1)
+        ends = t[cut][:, [i, j]] + shown[cut]
+        label = f"arrow cut at the axes ({cut.sum()}: error > {FAR_FACTOR:g}× median)"
+        ax.scatter(ends[:, 0], ends[:, 1], label=label, **CUT_STYLE)
         ax.scatter(t[stopped, i], t[stopped, j], label="stopped early", **STOPPED_STYLE)
+        ax.set_xlim(low[0], high[0])
+        ax.set_ylim(low[1], high[1])
         ax.set_xlabel("xyz"[i] + " [m]")
         ax.set_ylabel("xyz"[j] + " [m]")
         ax.set_title(name)
-        ax.set_aspect("equal", adjustable="datalim")
-    if stopped.any():
-        axes[0].legend(loc="best")
-    fig.colorbar(arrows, ax=axes, label="error after the last move [mm]")
+        ax.set_aspect("equal", adjustable="box")  # the limits stay; the panel's shape gives
+        if stopped.any() or far.any():
+            ax.legend(loc="best", fontsize=8)
+    fig.colorbar(quiver, ax=axes, label="error after the last move [mm]")
     fig.suptitle(f"Target → end point, arrows ×{gain:g} ({len(t)} targets)\n{subject}", fontsize=11)
     return fig
+
+
+def _bulk_limits(targets: np.ndarray, tips: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) (2,) m: the box round every target and the bulk's arrow tips, with a margin
+    of :data:`AXES_MARGIN` of its larger side (and at least 1 mm)."""
+    points = np.concatenate([targets, tips])
+    low, high = points.min(axis=0), points.max(axis=0)
+    margin = max(AXES_MARGIN * float((high - low).max()), 1e-3)
+    return low - margin, high + margin
+
+
+def _cut(start: np.ndarray, arrow: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """(n,) the share in [0, 1] of each arrow from ``start`` (inside the box) that stays inside
+    the box [low, high] (2,)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = np.where(arrow > 0, (high - start) / arrow, (low - start) / arrow)
+    room = np.where(arrow == 0, np.inf, room)
+    return np.clip(room.min(axis=1), 0.0, 1.0)
 
 
 def _round_gain(gain: float) -> float:

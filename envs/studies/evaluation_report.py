@@ -14,6 +14,8 @@ from envs.harness.training import Trainer
 from envs.sensing.rendering import render_camera
 from learners.som.controller import VisuomotorSOM
 
+CELL = 13  # characters of a number's column in the grasp tables
+
 
 def som_name(som: VisuomotorSOM) -> str:
     """A map's name in the table: its protocol and, for MRS, its fine-move options."""
@@ -29,16 +31,19 @@ def format_table(rows: list[dict]) -> str:
     every trial (a trial that stopped counts where it stopped), and the complete trials."""
     moves = len(rows[0]["mean_mm"])
     names = ["coarse"] + [f"fine {k}" for k in range(1, moves)]
-    head = f"{'controller':<18}" + "".join(f"{n + ' [mm]':>14}" for n in names)
-    head += f"{'last median':>12}{'last p95':>10}{'last [% reach]':>16}{'last [px]':>11}"
-    head += f"{'us/query':>10}{'complete':>10}"
+    width = max(len("controller"), *(len(r["controller"]) for r in rows)) + 2
+    head = f"{'controller':<{width}}" + "".join(f"{n + ' [mm]':>13}" for n in names)
+    head += f"{'median':>8}{'p95':>8}{'% reach':>9}{'px':>7}{'us/query':>10}{'complete':>10}"
     lines = [head, "-" * len(head)]
     for r in rows:
-        line = f"{r['controller']:<18}" + "".join(f"{e:>14.3f}" for e in r["mean_mm"])
-        line += f"{r['median_mm'][-1]:>12.3f}{r['p95_mm'][-1]:>10.3f}"
-        line += f"{r['mean_percent_reach'][-1]:>16.4f}{r['mean_px'][-1]:>11.3f}"
+        line = f"{r['controller']:<{width}}" + "".join(f"{e:>13.3f}" for e in r["mean_mm"])
+        line += f"{r['median_mm'][-1]:>8.3f}{r['p95_mm'][-1]:>8.3f}"
+        line += f"{r['mean_percent_reach'][-1]:>9.4f}{r['mean_px'][-1]:>7.3f}"
         line += f"{r['microseconds_per_query']:>10.1f}{r['complete_fraction'] * 100:>9.1f}%"
         lines.append(line)
+    lines.append(
+        f"[mm]: mean error after each move; median, p95 (mm), % reach, px: after {names[-1]}"
+    )
     for r in rows:
         if "recovered_trials" in r:
             lines.append(
@@ -50,25 +55,32 @@ def format_table(rows: list[dict]) -> str:
 
 
 def format_pose_table(rows: list[dict]) -> str:
-    """The grasp task's table, one line per controller and move: mean position error (mm, % of
-    reach) and orientation error (°), their medians, the share of trials over 1 mm or 1°, the
-    largest errors, over every trial; then each controller's complete trials."""
-    head = (
-        f"{'controller':<32}{'move':>8}{'mean mm':>10}{'% reach':>9}{'mean deg':>10}"
-        f"{'median mm':>11}{'median deg':>11}{'>1mm|1deg':>11}{'max mm':>10}{'max deg':>9}"
-    )
-    lines = [head, "-" * len(head)]
+    """The grasp task's tables, one line per controller and move, over every trial, in two
+    blocks that fit a terminal: the position error (mean in mm and % of reach, median, largest),
+    then the orientation error (mean, median, largest, in degrees) with the share of trials over
+    1 mm or 1°; then each controller's complete trials."""
+    width = max(len("controller"), *(len(r["controller"]) for r in rows)) + 2
+    blocks = (
+        ("position error", ("mean [mm]", "% reach", "median [mm]", "max [mm]"),
+         lambda r, k: (f"{r['mean_mm'][k]:.3f}", f"{r['mean_percent_reach'][k]:.4f}",
+                       f"{r['median_mm'][k]:.3f}", f"{r['max_mm'][k]:.2f}")),
+        ("orientation error", ("mean [deg]", "median [deg]", "max [deg]", ">1mm|1deg"),
+         lambda r, k: (f"{r['mean_deg'][k]:.3f}", f"{r['median_deg'][k]:.3f}",
+                       f"{r['max_deg'][k]:.2f}", f"{100 * r['tail_fraction'][k]:.2f}%")),
+    )  # fmt: skip
+    lines = []
+    for title, names, cells in blocks:
+        head = f"{'controller':<{width}}{'move':<8}" + "".join(f"{n:>{CELL}}" for n in names)
+        lines += [title, head, "-" * len(head)]
+        for r in rows:
+            for k in range(len(r["mean_mm"])):
+                move = "coarse" if k == 0 else f"fine {k}"
+                name = r["controller"] if k == 0 else ""
+                values = "".join(f"{c:>{CELL}}" for c in cells(r, k))
+                lines.append(f"{name:<{width}}{move:<8}{values}")
+        lines.append("")
     for r in rows:
-        for k in range(len(r["mean_mm"])):
-            move = "coarse" if k == 0 else f"fine {k}"
-            lines.append(
-                f"{r['controller'] if k == 0 else '':<32}{move:>8}{r['mean_mm'][k]:>10.3f}"
-                f"{r['mean_percent_reach'][k]:>9.4f}{r['mean_deg'][k]:>10.3f}"
-                f"{r['median_mm'][k]:>11.3f}{r['median_deg'][k]:>11.3f}"
-                f"{100 * r['tail_fraction'][k]:>10.2f}%"
-                f"{r['max_mm'][k]:>10.2f}{r['max_deg'][k]:>9.2f}"
-            )
-        lines.append(f"{'':<32}{'complete trials':>18}: {r['complete_fraction'] * 100:.1f}%")
+        lines.append(f"{r['controller']}: {r['complete_fraction'] * 100:.1f}% complete trials")
     lines.append("all trials counted; a trial stopped by an unseen marker keeps its last error")
     return "\n".join(lines)
 
