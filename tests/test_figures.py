@@ -241,7 +241,7 @@ def test_adaptation_curves_show_each_controller_after_each_change():
         for name, level in fixed.items():
             np.testing.assert_array_equal(_points(by_label[name]), [[300, level], [500, level]])
         assert ax.get_xlim() == (100, 500)
-    assert fig.axes[0].get_ylabel() == "held-out mean distance after fine move 2 [mm]"
+    assert fig.axes[0].get_ylabel() == "held-out mean error after fine move 2 [mm]"
 
 
 def test_rl_figure_has_a_line_per_method_at_the_mean_over_seeds():

@@ -40,7 +40,7 @@ TRIAL_COUNT = cli.count(most=1000, why="each trial is seconds of rendered video"
 
 def controller_name(spec: str, controller) -> str:
     named = spec in NAMED or spec in POSE_NAMED
-    return spec if named else f"{type(controller).__name__} ({Path(spec).name})"
+    return spec if named else f"learned map ({type(controller).__name__}, {Path(spec).name})"
 
 
 def main(argv: list[str] | None = None) -> Path:

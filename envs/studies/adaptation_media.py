@@ -74,7 +74,7 @@ def adaptation_curves(pre: list[dict], results: list[dict[str, Any]], title: str
         ax.set_title(result["change"], fontsize=9)
         ax.set_xlabel("training trials (change at the vertical line)")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0].set_ylabel("held-out mean distance after fine move 2 [mm]")
+    axes[0].set_ylabel("held-out mean error after fine move 2 [mm]")
     axes[-1].legend(fontsize=7, loc="upper right")
     fig.suptitle(title, fontsize=10)
     return fig
