@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from envs.robots import PUMA_GRASP
+from envs.sensing.drawn_spheres import spheres_drawn
 from envs.sensing.rendering import VISIBLE_GROUPS
 from envs.sensing.viewports import View, ViewportRenderer
 
@@ -46,9 +47,9 @@ FRAME_OFF_FLAGS = ("mjRND_SHADOW", "mjRND_REFLECTION")
 #: Grid spacing (m) the floor is drawn with (see ViewportRenderer's plane_grid).
 PLANE_GRID = 0.5
 #: The target's spheres (the reach task's, the grasp object's markers): one that an arm's marker
-#: sphere (:data:`MARKERS`) touches is drawn this much larger and with this opacity in the frames
-#: for people, so that the marker inside it shows through.
-SEE_THROUGH, TARGET_SCALE, TARGET_ALPHA = ("target", *PUMA_GRASP.target), 1.3, 0.35
+#: sphere (:data:`MARKERS`) touches is drawn as a larger see-through shell in the frames for
+#: people, so that the marker inside it shows through (:mod:`envs.sensing.drawn_spheres`).
+SEE_THROUGH = ("target", *PUMA_GRASP.target)
 MARKERS = ("marker_wrist", "marker_tcp", *PUMA_GRASP.effector)  # the arms' marker spheres
 #: The zoom inset: magnification, and the side of the magnified square (fraction of the height).
 ZOOM, ZOOM_FRACTION = 3, 0.42
@@ -134,13 +135,8 @@ class CompositeView:
             trail: earlier detections (4,) each of the first marker, joined by a line in their
                 order.
         """
-        rgba, size, shells = self._model.geom_rgba, self._model.geom_size, self._touched(data)
-        opaque, radius = rgba[shells, 3].copy(), size[shells].copy()
-        rgba[shells, 3], size[shells] = TARGET_ALPHA, TARGET_SCALE * radius
-        try:
+        with spheres_drawn(self._model, data, self._see_through, self._markers):
             images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
-        finally:  # the model as it was: sensing renders see the targets as they are
-            rgba[shells, 3], size[shells] = opaque, radius
         panels = []
         for k, name in enumerate(PANELS[:2]):
             view = np.ascontiguousarray(images[k][0])
@@ -163,17 +159,6 @@ class CompositeView:
         self._label(overview, "overview")
         panels.append(overview)
         return panels
-
-    def _touched(self, data) -> np.ndarray:
-        """Ids of the target spheres that an arm's marker sphere intersects in ``data``."""
-        if not len(self._see_through) or not len(self._markers):
-            return self._see_through[:0]
-        gap = np.linalg.norm(
-            data.geom_xpos[self._see_through, None] - data.geom_xpos[None, self._markers], axis=-1
-        )  # (targets, markers) m between centres
-        size = self._model.geom_size
-        touching = gap < size[self._see_through, :1] + size[self._markers, 0][None]
-        return self._see_through[touching.any(axis=1)]
 
     def _trail(self, image: np.ndarray, points: list[np.ndarray]) -> None:
         if len(points) > 1:

@@ -19,6 +19,7 @@ from envs.robots import MarkerSet, RobotSpec, reach_env_ids, robot_spec
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
 from envs.sensing import pinhole_kernels
 from envs.sensing.camera_images import CameraImages
+from envs.sensing.pixel_cameras import PixelRig
 from envs.sensing.sensors import SENSING_MODES, make_sensor
 from envs.sensing.stereo import CameraPair
 from envs.sensing.triangulation import camera_floats
@@ -98,15 +99,19 @@ class ReachEnv(ArmScene):
     keeps its last valid sensing in the observation and ``info["visible"]`` is False; before a
     marker has ever been seen its entry is the image centre.
 
-    ``obs_mode="pixels"`` replaces ``observation`` by the two sensing cameras' images,
-    ``"state_pixels"`` adds them to it: ``pixels_left`` and ``pixels_right``, each
+    ``obs_mode="pixels"`` replaces ``observation`` by two camera images, ``"state_pixels"`` adds
+    them to it: ``pixels_left`` and ``pixels_right``, each
     ``Box(0, 255, (pixels_height, pixels_width, 3), uint8)``, channel last, as Stable-Baselines3's
-    CNN policies (``MultiInputPolicy``) take them. They are the cameras' whole views as a real
-    camera would show them (floor, target, robot and marker; nothing the env sensed drawn on
-    them), at their own size: the goals stay the sensed pixels of the ``width`` × ``height``
-    sensing images, so goal relabelling (HER) works unchanged. One key per camera keeps each an
-    ordinary RGB image (for viewing, recording, augmentation) and gives each its own CNN. Both
-    are drawn into one off-screen buffer and read back at once after every reset and move.
+    CNN policies (``MultiInputPolicy``) take them. They come from the pixel cameras
+    (``pixel_rig``, ``envs.sensing.pixel_cameras``), a stereo pair on the sensing cameras' side
+    that frames the sensed point's reachable positions and the targets with a margin, not from
+    the sensing cameras. They show floor, target, robot and marker, nothing the env sensed drawn
+    on them; the target and marker spheres are drawn large enough to be seen (at least 2 px in
+    radius), a target that the marker touches as a see-through shell. The goals stay the sensed
+    pixels of the ``width`` × ``height`` sensing images, so goal relabelling (HER) works
+    unchanged. One key per camera keeps each an ordinary RGB image (for viewing, recording,
+    augmentation) and gives each its own CNN. Both are drawn into one off-screen buffer and read
+    back at once after every reset and move.
 
     ## Reward
     ``reward = reward_distance + reward_unseen`` (m), computed from the observation alone, so that
@@ -260,11 +265,19 @@ class ReachEnv(ArmScene):
         self._view = CompositeView(self.model, height, width)
         self.obs_mode = obs_mode
         self.pixels_width, self.pixels_height = pixels_size
-        self._images = (
-            None
-            if obs_mode == "state"
-            else CameraImages(self.model, self.stereo.camera_names, *pixels_size[::-1])
-        )
+        self._pixel_rig: PixelRig | None = None
+        self._images = None
+        if obs_mode != "state":
+            rig = self.pixel_rig
+            self._images = CameraImages(
+                self.model,
+                rig.views(),
+                rig.height,
+                rig.width,
+                self.target_geom_ids,
+                self.effector_geom_ids,
+                rig.sphere_radius,
+            )
 
         self._make_spaces(normalize)
         self._human: HumanViewer | None = None  # render_mode="human": the window
@@ -406,6 +419,15 @@ class ReachEnv(ArmScene):
         if self.render_mode != "rgb_array":
             return None
         return self._view.render(self.data, self._last["target"], self._detected_effector)
+
+    @property
+    def pixel_rig(self) -> PixelRig:
+        """The image observations' cameras at ``pixels_height`` × ``pixels_width``
+        (:class:`envs.sensing.pixel_cameras.PixelRig`), placed at the first use (with
+        ``obs_mode`` "pixels" or "state_pixels": when the env is made)."""
+        if self._pixel_rig is None:
+            self._pixel_rig = PixelRig.frame(self, self.pixels_height, self.pixels_width)
+        return self._pixel_rig
 
     def _action_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The action space's bounds (J,) rad each: the joint ranges."""

@@ -124,16 +124,7 @@ def place_cameras(points: np.ndarray, towards: np.ndarray, margin: float = CAMER
     side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([1.0, 0.0])
     distance = CAMERA_DISTANCE * radius
     back = np.array([*(side * math.cos(CAMERA_ELEVATION)), math.sin(CAMERA_ELEVATION)])
-    middle = centre + distance * back
-    across = np.cross([0.0, 0.0, 1.0], back)
-    across /= np.linalg.norm(across)
-    cameras = []
-    for name, sign in (("cam_left", -1.0), ("cam_right", 1.0)):  # left: seen from the camera
-        eye = middle + sign * 0.5 * CAMERA_BASELINE * distance * across
-        right, up = _look(eye, centre)
-        cameras.append((name, eye, right, up))
-    fovy = max(fovy_to_fit(e, r, u, points, margin) for _, e, r, u in cameras)
-    stereo = [Camera(n, e, r, u, math.degrees(fovy)) for n, e, r, u in cameras]
+    stereo = frame_pair(points, back, margin)
     turn = math.radians(40.0)  # the overview looks from 40° aside of the pair, a bit higher
     rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
     over_side = rot @ side
@@ -143,6 +134,28 @@ def place_cameras(points: np.ndarray, towards: np.ndarray, margin: float = CAMER
         "overview", eye, right, up, math.degrees(fovy_to_fit(eye, right, up, points, 0.05))
     )
     return stereo[0], stereo[1], overview
+
+
+def frame_pair(points: np.ndarray, back: np.ndarray, margin: float = CAMERA_MARGIN,
+               aspect: float = CAMERA_ASPECT) -> tuple[Camera, Camera]:  # fmt: skip
+    """``cam_left`` and ``cam_right`` side by side that frame points (N, 3): aimed at the
+    points' centre from the unit direction ``back`` (from the centre towards the cameras),
+    CAMERA_DISTANCE radii away, CAMERA_BASELINE of that apart, with the vertical field of view
+    that leaves ``margin`` of an image of width / height ``aspect`` free around the points."""
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    radius = float(np.max(np.linalg.norm(points - centre, axis=-1)))
+    distance = CAMERA_DISTANCE * radius
+    middle = centre + distance * back
+    across = np.cross([0.0, 0.0, 1.0], back)
+    across /= np.linalg.norm(across)
+    cameras = []
+    for name, sign in (("cam_left", -1.0), ("cam_right", 1.0)):  # left: seen from the camera
+        eye = middle + sign * 0.5 * CAMERA_BASELINE * distance * across
+        right, up = _look(eye, centre)
+        cameras.append((name, eye, right, up))
+    fovy = max(fovy_to_fit(e, r, u, points, margin, aspect) for _, e, r, u in cameras)
+    left, right_ = (Camera(n, e, r, u, math.degrees(fovy)) for n, e, r, u in cameras)
+    return left, right_
 
 
 # -- the robot -----------------------------------------------------------------------------------

@@ -18,6 +18,7 @@ from gymnasium.utils.env_checker import check_env
 
 import envs  # noqa: F401  (registers the envs)
 from envs.goal_env import GoalEnvWrapper
+from envs.sensing.viewports import View, place_camera
 from envs.step_info import StepInfo
 
 ENV_IDS = ("RiacsReach-v0", "PumaReach-v0")
@@ -31,18 +32,22 @@ MAX_ROUNDED = 1e-3  # fraction of colour values that may differ by one level fro
 
 def direct_render(
     env: gym.Env,
-    camera: str,
+    camera: str | View,
     height: int,
     width: int,
     skybox: bool = False,
     textures: bool = False,
     facets: tuple[int, int] | None = IMAGE_FACETS,
+    sphere_radius: float | None = None,
 ) -> np.ndarray:
-    """One camera through mujoco.Renderer with the documented settings: no shadows,
-    reflections or multisampling, meshes of ``facets`` (None: the model's), the floor's grid
-    0.5 m."""
+    """One camera (a model camera's name, or a posed view) through mujoco.Renderer with the
+    documented settings: no shadows, reflections or multisampling, meshes of ``facets`` (None:
+    the model's), the floor's grid 0.5 m, target and marker at least ``sphere_radius`` m."""
     base = env.unwrapped
     model = copy.deepcopy(base.model)
+    if sphere_radius is not None:
+        spheres = np.concatenate([base.target_geom_ids, base.effector_geom_ids])
+        model.geom_size[spheres, 0] = np.maximum(model.geom_size[spheres, 0], sphere_radius)
     if facets is not None:
         model.vis.quality.numslices, model.vis.quality.numstacks = facets
     model.vis.quality.offsamples = 0
@@ -57,7 +62,12 @@ def direct_render(
         option.flags[mujoco.mjtVisFlag.mjVIS_TEXTURE] = int(textures)
         option.geomgroup[:] = 0
         option.geomgroup[list(SCENE_GROUPS)] = 1
-        renderer.update_scene(base.data, camera=camera, scene_option=option)
+        if isinstance(camera, View):
+            renderer.update_scene(base.data, camera=-1, scene_option=option)
+            place_camera(renderer.scene, camera)
+            mujoco.mjv_makeLights(model, base.data, renderer.scene)  # the view's own headlight
+        else:
+            renderer.update_scene(base.data, camera=camera, scene_option=option)
         return renderer.render().copy()
     finally:
         renderer.close()
@@ -89,14 +99,17 @@ def _rollout(env: gym.Env, seed: int, steps: int = 3, check=None) -> list[dict[s
 @pytest.mark.parametrize("env_id", ENV_IDS)
 @pytest.mark.parametrize("size", [(84, 84), (100, 60)])
 def test_images_equal_a_direct_render_of_each_camera(env_id, size):
+    """The pixel cameras' views, the spheres drawn large (apart: no see-through shell)."""
     width, height = size
     env = gym.make(env_id, obs_mode="pixels", pixels_width=width, pixels_height=height, **FAST)
+    rig = env.unwrapped.pixel_rig
 
     def check(obs: dict[str, np.ndarray]) -> None:  # the scene is where obs was taken
         assert set(obs) == {"pixels_left", "pixels_right", "achieved_goal", "desired_goal"}
-        for key, camera in (("pixels_left", "cam_left"), ("pixels_right", "cam_right")):
+        for key, view in zip(("pixels_left", "pixels_right"), rig.views(), strict=True):
             assert obs[key].shape == (height, width, 3) and obs[key].dtype == np.uint8
-            assert_same_image(obs[key], direct_render(env, camera, height, width))
+            expected = direct_render(env, view, height, width, sphere_radius=rig.sphere_radius)
+            assert_same_image(obs[key], expected)
         assert env.observation_space.contains(obs)
 
     _rollout(env, seed=3, check=check)

@@ -1,5 +1,5 @@
-"""The sensing cameras' images as an agent sees them: both whole views, unannotated, at a size
-of the agent's choosing (``obs_mode="pixels"`` of the reach envs)."""
+"""The images an agent sees (``obs_mode="pixels"`` of the reach envs): whole camera views,
+unannotated, at a size of the agent's choosing."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from envs.sensing.drawn_spheres import spheres_drawn
 from envs.sensing.rendering import VISIBLE_GROUPS
 from envs.sensing.viewports import View, ViewportRenderer
 
@@ -24,38 +25,51 @@ FACETS = (16, 8)
 
 
 class CameraImages:
-    """RGB images of named cameras, each (height, width, 3) uint8, drawn as viewports of one
+    """RGB images of camera views, each (height, width, 3) uint8, drawn as viewports of one
     off-screen buffer and read back at once (colours only).
 
-    Each camera's whole field of view, vertically, as the model defines it; a width-to-height
-    ratio other than the camera's sees more or less of the sides. The scene is drawn as the
-    sensing cameras draw it (no shadows, reflections, skybox, textures or multisampling; floor,
-    target, robot and marker) but with coarser meshes (FACETS) and floor grid (PLANE_GRID),
-    each camera lit by its own headlight, without anything the env sensed drawn on it. The
-    renderer starts at the first image (GL resources are not pickled).
+    The scene is drawn as the sensing cameras draw it (no shadows, reflections, skybox,
+    textures or multisampling; floor, target, robot and marker) but with coarser meshes
+    (FACETS) and floor grid (PLANE_GRID), each view lit by its own headlight, without anything
+    the env sensed drawn on it. The target and marker spheres are drawn at least ``radius``
+    m large, a target that a marker touches as a see-through shell
+    (:func:`envs.sensing.drawn_spheres.spheres_drawn`). The renderer starts at the first image
+    (GL resources are not pickled).
 
     Args:
-        model: the MuJoCo model; cameras: camera names; height, width: pixels per image.
+        model: the MuJoCo model; views: whole views, one per image (:meth:`View.posed`, or
+            :meth:`View.whole` of a model camera); height, width: pixels per image.
+        targets, markers: the target's and the marker's sphere geom ids; radius: m, or None
+            (as they are).
     """
 
     def __init__(
-        self, model: mujoco.MjModel, cameras: Sequence[str], height: int, width: int
+        self,
+        model: mujoco.MjModel,
+        views: Sequence[View],
+        height: int,
+        width: int,
+        targets: np.ndarray,
+        markers: np.ndarray,
+        radius: float | None = None,
     ) -> None:
-        self.cameras, self.height, self.width = tuple(cameras), height, width
+        self.views, self.height, self.width = list(views), height, width
+        self.targets, self.markers, self.radius = targets, markers, radius
+        self._model = model
         self._renderer = ViewportRenderer(
             model,
             height,
-            len(self.cameras) * width,
+            len(self.views) * width,
             own_headlight=True,
             plane_grid=PLANE_GRID,
             facets=FACETS,
         )
-        self._views = [View.whole(name, height, width) for name in self.cameras]
 
     def render(self, data: mujoco.MjData) -> list[np.ndarray]:
-        """One image (height, width, 3) uint8 per camera, rows top first, of the positions in
+        """One image (height, width, 3) uint8 per view, rows top first, of the positions in
         ``data``."""
-        images = self._renderer.render(data, self._views, VISIBLE_GROUPS, depth=False)
+        with spheres_drawn(self._model, data, self.targets, self.markers, self.radius):
+            images = self._renderer.render(data, self.views, VISIBLE_GROUPS, depth=False)
         return [np.ascontiguousarray(rgb) for rgb, _ in images]
 
     def close(self) -> None:

@@ -89,12 +89,18 @@ class Window:
 @dataclass(frozen=True)
 class View:
     """One camera into one viewport: camera name, its base intrinsics (pixels) and the window
-    (None: the model's own frustum over the whole image)."""
+    (None: the model's own frustum over the whole image).
+
+    ``pose`` (world position (3,) m, rotation (3, 3) whose columns are the camera's right, up
+    and backwards) places a camera that the model does not have: ``camera`` is then only its
+    name, and the view is drawn from that pose through the frustum of ``focal`` and ``center``.
+    """
 
     camera: str
     focal: np.ndarray  # (2,) px of the base image
     center: np.ndarray  # (2,) px of the base image
     window: Window
+    pose: tuple[np.ndarray, np.ndarray] | None = None
 
     @classmethod
     def whole(cls, camera: str, height: int, width: int) -> View:
@@ -102,6 +108,22 @@ class View:
         model's field of view, vertical; intrinsics are not needed and are NaN)."""
         nan = np.full(2, np.nan)
         return cls(camera, nan, nan, Window.full(height, width))
+
+    @classmethod
+    def posed(
+        cls,
+        camera: str,
+        position: np.ndarray,
+        rotation: np.ndarray,
+        focal: np.ndarray,
+        center: np.ndarray,
+        height: int,
+        width: int,
+    ) -> View:
+        """The whole ``height`` × ``width`` image of a pinhole camera at ``position`` (3,) m
+        with ``rotation`` (3, 3) (columns: right, up, backwards), ``focal`` and ``center``
+        (2,) px, that the model does not have."""
+        return cls(camera, focal, center, Window.full(height, width), (position, rotation))
 
 
 class ViewportRenderer:
@@ -151,7 +173,7 @@ class ViewportRenderer:
         self._scene: mujoco.MjvScene | None = None
         self._free: weakref.finalize | None = None  # frees _context and _gl, once
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
-        self._cameras: dict = {}  # camera name -> mujoco.MjvCamera
+        self._cameras: dict = {}  # camera name -> mujoco.MjvCamera (None: a free camera)
         self._geoms: dict = {}  # (groups, scene geoms) -> scene's model geoms, their ids
 
     def _start(self) -> tuple[mujoco.MjrContext, mujoco.MjvScene]:
@@ -209,14 +231,19 @@ class ViewportRenderer:
             self._options[groups] = option
         return option
 
-    def _camera(self, name: str):
+    def _camera(self, view: View):
+        """The MjvCamera of a model camera, or a free one for a posed view (placed later)."""
         import mujoco
 
+        name = None if view.pose is not None else view.camera
         cam = self._cameras.get(name)
         if cam is None:
             cam = mujoco.MjvCamera()
-            cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
-            cam.fixedcamid = self.model.camera(name).id
+            if name is None:
+                cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+            else:
+                cam.type = mujoco.mjtCamera.mjCAMERA_FIXED
+                cam.fixedcamid = self.model.camera(name).id
             self._cameras[name] = cam
         return cam
 
@@ -266,7 +293,7 @@ class ViewportRenderer:
         option = self._option(tuple(groups))
         x = 0
         mujoco.mjv_updateScene(
-            self.model, data, option, None, self._camera(views[0].camera),
+            self.model, data, option, None, self._camera(views[0]),
             mujoco.mjtCatBit.mjCAT_ALL, scene,
         )  # fmt: skip
         culling = (
@@ -274,11 +301,16 @@ class ViewportRenderer:
         )
         for k, view in enumerate(views):
             if k > 0:
-                mujoco.mjv_updateCamera(self.model, data, self._camera(view.camera), scene)
-                if self.own_headlight:
-                    mujoco.mjv_makeLights(self.model, data, scene)
+                mujoco.mjv_updateCamera(self.model, data, self._camera(view), scene)
+            if view.pose is not None:
+                place_camera(scene, view)
+            if self.own_headlight and (k > 0 or view.pose is not None):
+                mujoco.mjv_makeLights(self.model, data, scene)
             hidden = []
-            if view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5:
+            window = (
+                view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5
+            )
+            if window and view.pose is None:  # a posed view is whole, framed by place_camera
                 _set_frustum(scene, view)
                 if culling is None:
                     geoms, ids = self._model_geoms(scene, tuple(groups))
@@ -318,6 +350,18 @@ class ViewportRenderer:
     def __getstate__(self) -> dict:
         return {**self.__dict__, "_gl": None, "_context": None, "_scene": None, "_free": None,
                 "_options": {}, "_cameras": {}, "_geoms": {}}  # fmt: skip
+
+
+def place_camera(scene, view: View) -> None:
+    """Put the scene's cameras at a posed view's pose (:attr:`View.pose`), with the frustum of
+    its intrinsics (MuJoCo draws a free camera from wherever its GL cameras are)."""
+    position, rotation = view.pose  # type: ignore[misc]  # a posed view's
+    for glcam in scene.camera:
+        glcam.pos[:] = position
+        glcam.forward[:] = -rotation[:, 2]
+        glcam.up[:] = rotation[:, 1]
+        glcam.orthographic = 0
+    _set_frustum(scene, view)
 
 
 def _set_frustum(scene, view: View) -> None:
