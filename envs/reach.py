@@ -182,8 +182,7 @@ class ReachEnv(ArmScene):
       ``MUJOCO_GL=egl`` and raises ``envs.viewer.DisplayUnavailableError`` without a display.
     - ``obs_mode`` (``"state"``): ``"state"``, ``"pixels"`` or ``"state_pixels"`` (above).
     - ``pixels_width`` (84): width of each camera image of the pixel modes, in pixels.
-    - ``pixels_height`` (84): their height. The cameras' vertical field of view is kept; a ratio
-      other than their 4:3 sees less (84 × 84: about three quarters) or more of the sides.
+    - ``pixels_height`` (84): their height. The pixel cameras frame the workspace at any ratio.
     - ``normalize`` (False): action, joints and goals in [-1, 1]. Off by default: radians and
       pixels are what the learners here and the baselines use, SB3's SAC/TD3 already rescale a
       bounded action space, and ``VecNormalize`` (or this option) fixes the observation scale.

@@ -38,6 +38,7 @@ PROGRAMS: dict[str, tuple[list[str], tuple[str, str] | None, list[str]]] = {
     "sweep": (["--grid", "robot=riacs"], ("--out", "folder"), ["--num-cpus", "--retries"]),
     "train_natenet": ([], ("--out", "folder"), ["--train-paths", "--test-paths"]),
     "sensing_accuracy": ([], ("--json", "file"), ["--poses"]),
+    "framing": ([], ("--json", "file"), ["--moves", "--pixel-moves"]),
     "bench_envs": ([], ("--json", "file"), ["--steps"]),
     "bench_ik": ([], None, ["--single", "--batch"]),
     "make_arm": ([str(SCRIPTS.parent / "models" / "ur5e" / "dh.toml")], ("--out", "folder"), []),

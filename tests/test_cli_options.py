@@ -37,6 +37,7 @@ FLAGS = {
                    "--sensing", "--table-at", "--targets", "--variants"},
     "demo": {"--out", "--targets", "--trials"},
     "docs_media": {"--out", "--seed", "--trials"},
+    "framing": {"--json", "--moves", "--pixel-moves", "--seed", "--sheet"},
     "evaluate": {"--abar", "--compare", "--control", "--controller", "--env", "--fine-moves",
                  "--image-size", "--no-backtrack", "--no-plots", "--no-refine", "--orientations",
                  "--out", "--protocol", "--recover", "--run", "--seed", "--sensing", "--targets",

@@ -2,19 +2,24 @@
 target both sensing cameras, and both pixel cameras (``obs_mode="pixels"``), show, why the others
 fail, and the target's and marker's pixels and the arm's share of the image at the pixel size.
 
-    .venv/bin/python scripts/framing.py --moves 2000 --pixel-moves 200 [--seed 0]
+    .venv/bin/python scripts/framing.py --moves 2000 --pixel-moves 200 [--seed 0] \
+        [--sheet docs/assets/pixel_observations.png]
 """
 
 from __future__ import annotations
 
+import cv2
 import gymnasium as gym
+import numpy as np
 
 import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli import options
 from envs.harness.run_folder import write_json
 from envs.robots import reach_env_ids
-from envs.studies.framing import markdown, study
+from envs.studies.framing import markdown, observation_row, study
+
+SHEET_SCALE = 3  # screen pixels per observation pixel in the sheet
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -23,13 +28,23 @@ def main(argv: list[str] | None = None) -> dict:
     cli.add_count(p, "--pixel-moves", 200, "of them, rendered to count pixels")
     options.SEED.add(p)
     options.JSON.add(p, help="also write the results here")
+    p.add_argument(
+        "--sheet",
+        type=cli.out_file,
+        default=None,
+        help="also write each arm's 84x84 image observation after a random move here (PNG)",
+    )
     args = p.parse_args(argv)
-    results = {}
+    results, rows = {}, []
     for env_id in reach_env_ids():
-        env = gym.make(env_id, sensing="project", control="kinematic")
+        env = gym.make(env_id, sensing="project", control="kinematic", obs_mode="pixels")
         results[env_id] = study(env.unwrapped, args.moves, args.pixel_moves, args.seed)
+        if args.sheet is not None:
+            rows.append(observation_row(env, args.seed, SHEET_SCALE))
         env.close()
     print(markdown(results))
+    if args.sheet is not None:
+        cv2.imwrite(str(args.sheet), cv2.cvtColor(np.concatenate(rows), cv2.COLOR_RGB2BGR))
     if args.json is not None:
         write_json(args.json, results)
     return results

@@ -183,3 +183,14 @@ def markdown(results: dict[str, dict]) -> str:
                 f"{c['arm_share'] * 100:.1f} % |"
             )
     return "\n".join(lines)
+
+
+def observation_row(env, seed: int, scale: int) -> np.ndarray:
+    """An env's image observation after a reset and one random move (``env``: made with
+    ``obs_mode="pixels"``, seeded by ``seed``): left | right, each pixel ``scale`` × ``scale``,
+    (scale H, 2 scale W, 3) uint8."""
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    obs = env.step(rng.uniform(env.action_space.low, env.action_space.high))[0]
+    row = np.concatenate([obs["pixels_left"], obs["pixels_right"]], axis=1)
+    return np.repeat(np.repeat(row, scale, axis=0), scale, axis=1)
