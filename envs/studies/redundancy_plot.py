@@ -29,6 +29,8 @@ from envs.studies.redundancy import Redundancy, neighbour_steps
 VIEWS = ((0, 1, "from above"), (0, 2, "from the side"))
 LINK_STYLE: dict[str, Any] = {"colors": "0.6", "linewidths": 0.4, "alpha": 0.5, "zorder": 1}
 CMAP = "viridis"
+#: Dots per inch of the written figure (1400 x 840 px).
+DPI = 100
 
 
 def links(points: np.ndarray, lattice: tuple[int, ...]) -> np.ndarray:
@@ -100,4 +102,4 @@ def _layers(values: np.ndarray, lattice: tuple[int, ...]) -> list[np.ndarray]:
 
 def write(result: Redundancy, path: Path) -> Path:
     """Write :func:`figure` to ``path`` (atomically, :func:`~envs.harness.plots.save_figure`)."""
-    return save_figure(figure(result), path)
+    return save_figure(figure(result), path, dpi=DPI)
