@@ -232,8 +232,8 @@ def measure(run: Path, targets: int, evaluation_set: int, fine_moves: int = 2) -
     (as ``evaluate.py --run RUN --seed SET`` draws them).
 
     Raises:
-        RedundancyError: the run's robot has no swivel angle here (:func:`dh_arm_of`), or the
-            run does not control all of its joints.
+        RedundancyError: the run's robot has no swivel angle here (:func:`dh_arm_of`), the
+            run does not control all of its joints, or no held-out target was seen.
         CheckpointError: no run in ``run``, or a damaged one.
     """
     config = Trainer.stored_config(run)
@@ -254,6 +254,8 @@ def measure(run: Path, targets: int, evaluation_set: int, fine_moves: int = 2) -
     finally:
         env.close()
     made = [trial for trial in recording.trials if trial]  # a target not seen: no command
+    if not made:
+        raise RedundancyError(f"the cameras saw none of the {targets} held-out targets of {run}")
     commands = np.array([c for trial in made for c in trial])  # (M, J)
     moves = np.array([k for trial in made for k in range(len(trial))])
     first, last = (np.array([trial[i] for trial in made]) for i in (0, -1))
