@@ -33,6 +33,7 @@ PROGRAMS: dict[str, tuple[list[str], tuple[str, str] | None, list[str]]] = {
     "docs_media": ([], ("--out", "folder"), ["--trials"]),
     "grasp_learning": ([], ("--out", "file"), ["--targets", "--fine-moves"]),
     "accuracy": ([], ("--out", "folder"), []),
+    "redundancy": (["--run", "folder"], ("--out", "folder"), ["--targets", "--fine-moves"]),
     "reproduce_brause": ([], ("--out", "folder"), ["--points"]),
     "riacs_dataset": ([], ("--out", "folder"), ["--train", "--test"]),
     "sweep": (["--grid", "robot=riacs"], ("--out", "folder"), ["--num-cpus", "--retries"]),

@@ -7,9 +7,10 @@
     .venv/bin/python scripts/sweep.py --grid robot=grasp --grid lattice=3,4,6 \\
         --grid orientation_lattice=1,2 --grid trials_per_neuron=2 --out runs/grasp-sweep   # pose
 
-Axes: robot (riacs, puma, or grasp for the grasp task PumaGrasp-v0; or env) and every training
-setting of scripts/train.py (lattice as 12x7x4 or n for n×n×n, rule, refine, sensing, control,
-image_size as 640x480, trials, seed, ...), plus trials_per_neuron k (trials at least k·N).
+Axes: robot (a robot's word in the registry, listed under --grid; grasp: the grasp task
+PumaGrasp-v0; or env) and every training setting of scripts/train.py (lattice as 12x7x4 or n
+for n×n×n, rule, refine, sensing, control, image_size as 640x480, trials, seed, ...), plus
+trials_per_neuron k (trials at least k·N).
 On grasp, lattice is the hierarchical map's position lattice (default 8x8x6) and
 orientation_lattice the one nested at every node (default 2x2x2); N counts the leaves, and the
 rows add the orientation error in degrees (mean_deg, median_deg, p90_deg after each move).
@@ -25,6 +26,7 @@ from pathlib import Path
 
 from envs.cli import common as cli
 from envs.cli import options
+from envs.robots import sweep_names
 from envs.studies.sweep_grid import expand
 from envs.studies.sweep_on_ray import DEFAULT_CPUS, DEFAULT_RETRIES, run_sweep
 from envs.studies.sweep_plots import error_vs_neurons
@@ -60,7 +62,12 @@ def parse_grid(items: list[str]) -> dict[str, list[str]]:
 def main(argv: list[str] | None = None) -> list[dict]:
     p = cli.parser(__doc__)
     p.add_argument("--spec", type=Path, help="JSON or YAML file: axis -> value or list")
-    p.add_argument("--grid", action="append", default=[], help="AXIS=V1,V2,... (repeatable)")
+    p.add_argument(
+        "--grid",
+        action="append",
+        default=[],
+        help=f"AXIS=V1,V2,... (repeatable); robot= takes {', '.join(sweep_names())}",
+    )
     options.OUT.add(p, default=Path("runs/sweep"))
     p.add_argument("--address", help="Ray cluster address (default: start Ray locally)")
     cli.add_count(p, "--num-cpus", DEFAULT_CPUS, "local Ray CPUs")

@@ -3,8 +3,8 @@
 table.
 
 A grid maps each :class:`~envs.harness.training.RunConfig` field (plus ``robot``, the short name
-of ``env`` in the robot registry, :func:`envs.robots.sweep_names`: "riacs", "puma" or "grasp"
-for the grasp task PumaGrasp-v0) to one value or a list of
+of ``env`` in the robot registry, :func:`envs.robots.sweep_names`: "riacs", "puma", "ur5e",
+"panda", ..., or "grasp" for the grasp task PumaGrasp-v0) to one value or a list of
 values; the cells are all combinations. ``lattice`` and ``orientation_lattice`` values are
 "12x7x4" or one size n for an n×n×n cube; ``image_size`` values are WIDTHxHEIGHT, "640x480" (or
 give ``width`` and ``height``). A grasp cell trains the hierarchical map: ``lattice`` is its
@@ -127,7 +127,7 @@ def expand(grid: dict[str, Any]) -> list[RunConfig]:
     if unknown:
         raise ValueError(f"unknown grid axes {unknown}; valid axes: {', '.join(sorted(valid))}")
     if "robot" in grid and "env" in grid:
-        raise ValueError("give the arm as robot (riacs, puma) or env, not both")
+        raise ValueError(f"give the arm as robot ({', '.join(sweep_names())}) or env, not both")
     if "image_size" in grid and {"width", "height"} & set(grid):
         raise ValueError("give the image size as image_size (640x480) or width and height")
     axes = {k: v if isinstance(v, list) else [v] for k, v in grid.items()}
