@@ -8,10 +8,11 @@ A run's seed s names a family of generators, one per purpose, told apart by the 
 | ``training`` | () | the training targets: exactly what ``env.reset(seed=s)`` draws |
 | ``evaluation`` | (1,) | held-out targets (``evaluate.py --seed``, held-out rows, videos) |
 | ``validation`` | (2,) | targets on which a setting is chosen by measurement |
-| workers' trials | (3, k, 0), (3, k, 1) | training trial k's target and exploration with ``--workers`` ≥ 2 (``envs.harness.workers.trial_rngs``) |
+| workers' trials | (3, k, 0), (3, k, 1) | trial k's target and moves with ``--workers`` ≥ 2 |
 
 A SeedSequence hashes its entropy together with its spawn key, so the streams of different
 keys share no state for any pair of seeds (``tests/test_streams.py`` draws the sets and checks).
+The workers' keys are ``envs.harness.workers.trial_rngs``'s.
 Training keeps the empty key so that runs trained before the streams existed resume unchanged.
 """
 
