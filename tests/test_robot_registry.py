@@ -11,6 +11,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import cv2
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -21,6 +22,7 @@ import models
 from envs.cli import bench_ik, demo, kinematic_accuracy
 from envs.harness import plots
 from envs.perturb import Perturbation
+from envs.reach import ReachEnv
 from envs.robots import (
     ROBOTS,
     RobotSpec,
@@ -380,3 +382,24 @@ def test_a_folder_without_model_says_what_to_add(tmp_path, monkeypatch):
         sys.modules.pop(f"models.{NAME}", None)
         if hasattr(models, NAME):
             delattr(models, NAME)
+
+
+def test_the_demo_films_every_registered_arm_at_its_own_joint_count(tmp_path):
+    """The demo's scene images of every robot in the registry (a 7-joint-only arm included):
+    both sensing images show the red target where the cameras' projection puts it."""
+    paths = demo.scene_images(tmp_path)
+    assert len(paths) == 3 * len(ROBOTS)
+    for name, spec in ROBOTS.items():
+        env = ReachEnv(robot=name, joints=spec.joint_options[0], sensing="project")
+        _, info = env.reset(seed=demo.SCENE_SEED)
+        target = env.stereo.project(info["target_pos"][None])[0]  # (4,) sensing pixels
+        scale = demo.SCENE_IMAGE_SIZE[0] / env.image_width
+        env.close()
+        for k, camera in enumerate(("cam_left", "cam_right")):
+            image = cv2.imread(str(tmp_path / f"{name}_{camera}.png"))[..., ::-1].astype(int)
+            red = (image[..., 0] > 150) & (image[..., 1] < 80) & (image[..., 2] < 80)
+            rows, cols = np.nonzero(red)
+            assert len(rows), f"{name} {camera}: no red target pixel"
+            expected = (target[2 * k : 2 * k + 2] + 0.5) * scale  # pixel centres at scale
+            found = np.array([cols.mean(), rows.mean()])
+            assert np.linalg.norm(found - expected) < 0.02 * demo.SCENE_IMAGE_SIZE[0], name

@@ -41,7 +41,8 @@ def scene_images(out: Path) -> list[Path]:
     (:attr:`envs.robots.RobotSpec.magnify`: RIACS)."""
     paths = []
     for name in cli.progress(tuple(ROBOTS), "scene images", "scene"):
-        env = ReachEnv(robot=name, sensing="project", control="kinematic")
+        joints = ROBOTS[name].joint_options[0]  # the fewest joints the arm's envs control
+        env = ReachEnv(robot=name, joints=joints, sensing="project", control="kinematic")
         _, info = env.reset(seed=SCENE_SEED)  # home pose, a target in the workspace
         width, height = SCENE_IMAGE_SIZE
         sensing_size = (env.image_width, env.image_height)
