@@ -2,8 +2,9 @@
 ``envs/harness/ray_workers.py``) on a local Ray instance: the checkpoint of local worker
 processes and the map of the rounds written out in tests/test_workers.py, bit for bit; an actor
 killed mid-round is replaced and its round redone; a run stopped on Ray continues in local
-processes, and one stopped there continues on Ray, to the unbroken run's checkpoint. And the
-mistakes of --address (a bad address, one worker, Ray missing) are one line, in real processes.
+processes, and one stopped there continues on Ray, to the unbroken run's checkpoint. And, in
+real processes: the mistakes of --address (a bad address, one worker, Ray missing) are one line;
+workers without --address never import Ray.
 """
 
 from __future__ import annotations
@@ -133,19 +134,33 @@ MISTAKES = [
 ]
 
 
+def _without_ray(folder):
+    """The environment of a process that finds no Ray (NO_RAY_MODULE first on its path)."""
+    folder.mkdir()
+    (folder / "ray.py").write_text(NO_RAY_MODULE)
+    return os.environ | {
+        "PYTHONPATH": os.pathsep.join([str(folder), os.environ.get("PYTHONPATH", "")])
+    }
+
+
 @pytest.mark.parametrize(("name", "args", "named", "hidden"), MISTAKES)
 def test_an_address_mistake_is_one_line_with_status_2_and_creates_nothing(
     name, args, named, hidden, tmp_path
 ):
-    env = dict(os.environ)
-    if hidden:
-        (tmp_path / "hidden").mkdir()
-        (tmp_path / "hidden" / "ray.py").write_text(NO_RAY_MODULE)
-        env["PYTHONPATH"] = os.pathsep.join([str(tmp_path / "hidden"), env.get("PYTHONPATH", "")])
+    env = _without_ray(tmp_path / "hidden") if hidden else None
     result = run_script(name, *args, "--out", "run", cwd=tmp_path, env=env, timeout=120)
     line = one_line_error(result)
     assert named in line, line
     assert not (tmp_path / "run").exists()
+
+
+def test_workers_without_address_never_import_ray(tmp_path):
+    """train.py --workers 2 trains in a process that finds no Ray."""
+    args = ["--lattice", "3x2x2", "--trials", "20", "--eval-trials", "5", "--workers", "2"]
+    env = _without_ray(tmp_path / "hidden")
+    result = run_script("train", *args, "--out", "run", cwd=tmp_path, env=env, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "trained 20 trials" in result.stdout
 
 
 def test_the_trainer_refuses_an_address_before_any_work(tmp_path):
