@@ -54,6 +54,12 @@ def _same_runs(a, b):
 
 
 @pytest.fixture(scope="module")
+def ray_module():
+    """The ``ray`` module; the test is skipped, saying why, without it."""
+    return pytest.importorskip("ray", reason=NO_RAY)
+
+
+@pytest.fixture(scope="module")
 def local_run(tmp_path_factory):
     """TWO_ROUNDS trained by train.py with local worker processes: its folder."""
     out = tmp_path_factory.mktemp("local") / "run"
@@ -61,9 +67,11 @@ def local_run(tmp_path_factory):
     return out
 
 
-def test_ray_actors_give_the_checkpoint_of_local_workers_and_the_map_of_rounds(local_run, tmp_path):
+def test_ray_actors_give_the_checkpoint_of_local_workers_and_the_map_of_rounds(
+    ray_module, local_run, tmp_path
+):
     """train.py --address local (first in this file: Ray is started and shut down by the run)."""
-    ray = pytest.importorskip("ray", reason=NO_RAY)
+    ray = ray_module
     assert not ray.is_initialized()
     train.main([*ARGV, "--address", LOCAL, "--out", str(tmp_path / "ray")])
     assert not ray.is_initialized()  # the run started Ray, and shut it down
@@ -75,15 +83,14 @@ def test_ray_actors_give_the_checkpoint_of_local_workers_and_the_map_of_rounds(l
 
 
 @pytest.fixture(scope="module")
-def ray_local():
+def ray_local(ray_module):
     """A local Ray instance of 2 CPUs for the module's remaining tests (the runs use it and
     leave it running)."""
-    ray = pytest.importorskip("ray", reason=NO_RAY)
     from envs.harness.ray_cluster import start_ray
 
     start_ray(LOCAL, num_cpus=2)
-    yield ray
-    ray.shutdown()
+    yield ray_module
+    ray_module.shutdown()
 
 
 def test_an_actor_killed_mid_round_is_replaced_and_its_round_redone(ray_local, tmp_path):
