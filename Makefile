@@ -100,13 +100,13 @@ lint: $(VENV)/.installed
 	$(BIN)/ruff check .
 	$(BIN)/mypy  # the files in pyproject.toml's [tool.mypy]
 
-# Sweeps on Ray: the extra "sweep" in the same venv.
+# Sweeps and training workers on Ray: the extra "sweep" in the same venv.
 $(VENV)/.sweep: $(VENV)/.installed $(LOCKS)/sweep.txt
 	@echo "installing the sweep extra (Ray) into .venv (a few minutes)"
 	$(call install_locked,sweep)
 
 test-sweep: $(VENV)/.sweep
-	$(BIN)/python -m pytest -q -rs tests/test_sweep.py
+	$(BIN)/python -m pytest -q -rs tests/test_sweep.py tests/test_ray_workers.py
 
 # 2 arms × 4 lattice sizes × 2 seeds, short training, on a local Ray instance (2 CPUs).
 sweep-demo: $(VENV)/.sweep

@@ -50,7 +50,7 @@ FLAGS = {
     "sensing_accuracy": {"--image-size", "--json", "--poses", "--seed"},
     "sweep": {"--address", "--checkpoint-every", "--grid", "--num-cpus", "--out", "--retries",
               "--spec"},
-    "train": {"--abar", "--checkpoint-every", "--control", "--env", "--eval-every",
+    "train": {"--abar", "--address", "--checkpoint-every", "--control", "--env", "--eval-every",
               "--eval-trials", "--force", "--image-size", "--keep-arm", "--lattice",
               "--orientation-lattice", "--orientations", "--out", "--protocol", "--refine",
               "--resume", "--rule", "--seed", "--sensing", "--sensing-noise", "--theta-target",
@@ -70,6 +70,8 @@ SHARED = {
     ("train", "--control"): ("kinematic", {"servo", "kinematic"}),
     ("train", "--env"): ("RiacsReach-v0", ENV_CHOICES),
     ("train", "--out"): (Path("runs/train"), None),
+    ("train", "--address"): (None, None),
+    ("sweep", "--address"): (None, None),
     ("evaluate", "--sensing"): (None, {"render", "project", "foveated"}),
     ("evaluate", "--env"): (None, ENV_CHOICES),
     ("evaluate", "--out"): (None, None),
@@ -166,7 +168,7 @@ def test_the_notes_defaults_are_the_envs_and_the_runs():
 SHARED_FLAGS = ("--seed", "--out", "--sensing", "--control", "--env", "--image-size",
                 "--fine-moves", "--targets", "--json", "--controller", "--orientations",
                 "--checkpoint-every", "--trials", "--eval-trials", "--lattice", "--protocol",
-                "--abar")  # fmt: skip
+                "--abar", "--address")  # fmt: skip
 
 
 @pytest.mark.parametrize("flag", SHARED_FLAGS)

@@ -145,7 +145,16 @@ def test_a_worker_killed_mid_round_is_started_again_and_the_round_redone(tmp_pat
     settings = {"workers": 2, "trials": 640, "eval_every": 640}
     reference = _trained(tmp_path, "reference", pool=InProcessPool, **settings)
     trainer = Trainer(RunConfig.of(**(SMALL | settings)), tmp_path / "killed")
-    delay = float(np.random.default_rng(35).uniform(0.0, 0.2))  # s into the next rounds
+    _run_killing_a_worker(trainer, np.random.default_rng(35))
+    assert trainer.pool is None
+    _same_maps(trainer.som, reference.som)
+    assert trainer.spent is not None and trainer.spent.restarts >= 1
+
+
+def _run_killing_a_worker(trainer, rng):
+    """Run ``trainer`` to its end (closed after), one of its workers sent SIGKILL at a moment
+    drawn from ``rng`` 0-0.2 s after its first round."""
+    delay = float(rng.uniform(0.0, 0.2))  # s into the next rounds
     killed: list[int] = []
 
     def progress(trial, running):
@@ -158,9 +167,7 @@ def test_a_worker_killed_mid_round_is_started_again_and_the_round_redone(tmp_pat
         trainer.run(progress=progress)
     finally:
         trainer.close()
-    assert killed and trainer.pool is None
-    _same_maps(trainer.som, reference.som)
-    assert trainer.spent is not None and trainer.spent.restarts >= 1
+    assert killed
 
 
 @pytest.mark.parametrize("value", ["0", "-1", "1.5", "two", str(MAX_WORKERS + 1)])

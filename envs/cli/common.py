@@ -18,6 +18,7 @@ from typing import NoReturn, TypeVar
 from tqdm import tqdm
 
 from envs import sizes
+from envs.harness.ray_cluster import check_address
 from envs.limits import MAX_COUNT, MAX_ERRORS, MAX_FINE_MOVES, MAX_TARGETS  # noqa: F401
 from models.puma560.grasp import OrientationRange
 
@@ -173,6 +174,9 @@ lattice = _text_type(_lattice, "lattice")
 orientation_range = _text_type(
     lambda text: OrientationRange.parse(text).spec(), "yaw:DEG,tilt:DEG or ball:DEG"
 )
+#: ``--address auto``, ``HOST:PORT`` or ``local``: a Ray cluster's address
+#: (:func:`envs.harness.ray_cluster.check_address`).
+ray_address = _text_type(check_address, "Ray address")
 #: ``--big 40x40x40`` or ``--big none``: a lattice or None.
 lattice_or_none = _text_type(
     lambda text: None if text == "none" else _lattice(text), "lattice or none"
@@ -262,6 +266,7 @@ def given_options(p: argparse.ArgumentParser, argv: Sequence[str] | None) -> set
 
 def user_errors() -> tuple[type[BaseException], ...]:
     """The project's errors that mean "your input or setup", not "a bug"."""
+    from envs.harness.ray_cluster import RayUnavailableError
     from envs.harness.run_folder import RunFolderError
     from envs.sensing.rendering import RenderingUnavailableError
     from learners.persistence import CheckpointError, OutputError
@@ -272,6 +277,7 @@ def user_errors() -> tuple[type[BaseException], ...]:
         RenderingUnavailableError,
         sizes.ImageSizeError,
         OutputError,
+        RayUnavailableError,
     )
 
 

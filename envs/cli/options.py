@@ -135,4 +135,13 @@ ORIENTATIONS = Option(
 )
 PROTOCOL = Option("--protocol", {"choices": PROTOCOLS, "help": "how the map moves and learns"})
 ABAR_OPTION = Option("--abar", {"choices": ABAR, "help": "Ā of the map's fine moves"})
+ADDRESS = Option(
+    "--address",
+    {
+        "type": cli.ray_address,
+        "default": None,
+        "help": "a Ray cluster (the extra sweep): auto (the one this machine joined with `ray "
+        "start`), HOST:PORT (its head) or local (a new Ray instance on this machine)",
+    },
+)
 CONTROLLER = Option("--controller", {"type": controller_spec, "help": SPECS})

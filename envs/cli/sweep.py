@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         help=f"AXIS=V1,V2,... (repeatable); robot= takes {', '.join(sweep_names())}",
     )
     options.OUT.add(p, default=Path("runs/sweep"))
-    p.add_argument("--address", help="Ray cluster address (default: start Ray locally)")
+    options.ADDRESS.add(p, note="default: a local Ray instance of --num-cpus CPUs")
     cli.add_count(p, "--num-cpus", DEFAULT_CPUS, "local Ray CPUs")
     cli.add_count(p, "--retries", DEFAULT_RETRIES, "per cell", least=0)
     options.CHECKPOINT_EVERY.add(p)

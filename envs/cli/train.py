@@ -25,7 +25,8 @@ workers run a round's trials with the map of its start, the learner learns them 
 k's target and exploration come from (seed, k), so the map is the same for every N >= 2 and after
 a kill; a worker that dies is started again and its round redone, and Ctrl-C abandons the
 round (redone on --resume). --workers 1 (the default) is the one-process training, trial after
-trial.
+trial. With --address (auto, HOST:PORT or local; the extra sweep) the workers are Ray actors on
+that cluster, one CPU each, and give the same map; --resume continues with or without it.
 """
 
 from __future__ import annotations
@@ -62,6 +63,11 @@ from learners.som.hierarchical_config import HierarchicalConfig
 from learners.som.options import run_key, run_options, run_spelling
 from models.puma560.grasp import WIDE
 
+#: --address with a run of one worker (the one-process training, which has no workers to place).
+_ONE_WORKER = (
+    "--address {address} runs the --workers as Ray actors, but the run has {workers} worker; "
+    "give --workers N (N >= 2) or leave out --address"
+)
 #: The progress bar's label while training, and while the map is evaluated on held-out targets
 #: (before the first trial, and every --eval-every trials), which the bar does not count.
 TRAINING = "train"
@@ -122,6 +128,8 @@ def main(argv: list[str] | None = None) -> Path:
                    help=f"collect the trials in {ROUND_TRIALS}-trial rounds with this many worker "
                    "processes, one learner learning them in order (default 1: one process, trial "
                    "after trial); the map depends on the seed, not on N >= 2")  # fmt: skip
+    options.ADDRESS.add(p, note="the --workers run there as Ray actors (default: local "
+                        "processes), the same map; not stored with the run")  # fmt: skip
     cli.add_count(p, "--eval-every", d.eval_every, "trials")
     options.EVAL_TRIALS.add(p, default=d.eval_trials)
     options.CHECKPOINT_EVERY.add(p)
@@ -136,6 +144,8 @@ def main(argv: list[str] | None = None) -> Path:
             name = "--" + flag.replace("_", "-")
             cli.fail(f"{name} is for {', '.join(GRASP_ENV_IDS)}, not {args.env}")
     given = cli.given_options(p, argv)
+    if args.address is not None and args.workers < 2 and not args.resume:
+        cli.fail(_ONE_WORKER.format(address=args.address, workers=args.workers))
     if args.keep_arm and args.workers > 1:
         cli.fail(
             f"--keep-arm starts a trial where the last ended, which {args.workers} workers "
@@ -153,7 +163,10 @@ def main(argv: list[str] | None = None) -> Path:
         if args.resume:
             if args.force:
                 cli.fail("--force starts a run over; it cannot be combined with --resume")
-            conflicts = resume_conflicts(Trainer.stored_config(args.out), args, given)
+            stored = Trainer.stored_config(args.out)
+            if args.address is not None and stored.workers < 2:
+                cli.fail(_ONE_WORKER.format(address=args.address, workers=stored.workers))
+            conflicts = resume_conflicts(stored, args, given)
             if conflicts:
                 cli.fail(
                     f"on --resume only --trials and --checkpoint-every may change, but "
@@ -163,6 +176,7 @@ def main(argv: list[str] | None = None) -> Path:
                 args.out,
                 args.trials if "trials" in given else None,
                 args.checkpoint_every if "checkpoint_every" in given else None,  # else the run's
+                args.address,
             )
         else:
             config = checked(
@@ -174,7 +188,9 @@ def main(argv: list[str] | None = None) -> Path:
                 training_pairs=args.training_pairs if grasp_env else None,
                 **map_settings(args, given),
             )  # fmt: skip
-            trainer = Trainer(config, args.out, args.force, args.checkpoint_every)
+            trainer = Trainer(
+                config, args.out, args.force, args.checkpoint_every, address=args.address
+            )
         try:
             with writing(args.out):  # the metrics log's appends: no space is a user error
                 train(trainer, trainer.checkpoint_every, stop)

@@ -32,18 +32,14 @@ from envs.harness.checkpoint import (
     write_unit,
 )
 from envs.harness.evaluation import Ticking, evaluate
+from envs.harness.ray_cluster import AddressError
+from envs.harness.ray_workers import ray_pools
 from envs.harness.run_folder import METRICS_FILE, RunFolder, check_metrics, truncate_metrics
 from envs.harness.run_state import CHECKPOINT_EVERY, RunState
 from envs.harness.stopping import SignalStop, StopRequested
 from envs.harness.streams import seed_env
 from envs.harness.trials import Trial, learn_from, run_trial
-from envs.harness.workers import (
-    ROUND_TRIALS,
-    Collected,
-    InProcessPool,
-    WorkerPool,
-    round_end,
-)
+from envs.harness.workers import ROUND_TRIALS, Collected, RoundPool, WorkerPool, round_end
 from envs.limits import MAX_COUNT, MAX_FINE_MOVES, MAX_TARGETS, MAX_WORKERS
 from envs.reach import CONTROL_MODES, IMAGE_HEIGHT, IMAGE_WIDTH, REACH_ENV_IDS, SENSING_MODES
 from envs.robots import ROBOTS, robot_of_env
@@ -144,7 +140,8 @@ class RunConfig:
     #: (``learn_from(..., pairs)``; None: TRAINING_PAIRS)
     training_pairs: int | None = None
     #: trials collected by this many worker processes in rounds (``envs.harness.workers``);
-    #: 1: one process, trial after trial
+    #: 1: one process, trial after trial. (Where they run, local processes or Ray actors, is the
+    #: Trainer's ``address``: it does not change the map, and is not stored.)
     workers: int = 1
     #: the map's options (None: its config's defaults; the constructor sets the checked config)
     map: MapConfig = None  # type: ignore[assignment]
@@ -382,17 +379,23 @@ def _interval(checkpoint_every: int) -> int:
 class Trainer:
     """Runs ``config.trials`` training trials, evaluating every ``eval_every`` trials; with
     ``config.workers`` >= 2 in rounds of ROUND_TRIALS trials collected by that many worker
-    processes (``envs.harness.workers``), each round learned in the order of its trials.
+    processes (``envs.harness.workers``) or Ray actors (``address``), each round learned in the
+    order of its trials.
 
     The folder ``out`` is locked while the trainer exists (``close()`` releases it) and holds
     the checkpoint unit (``checkpoint.npz``: map, trainer state, simulation state, env generator,
     metrics position) and ``metrics.jsonl`` (one held-out evaluation per row).
 
     Args:
-        config: the run; out: its folder; force: start over in a folder that holds a run.
+        config: the run; out: its folder; force: start over in a folder that holds a run;
+        address: run the workers as Ray actors on the Ray cluster at this address
+            (``envs.harness.ray_workers``: ``auto``, ``HOST:PORT`` or ``local``); None: local
+            processes. The same map either way: the address is not stored with the run.
     Raises:
         RunFolderError: another process writes to ``out``, or ``out`` holds a run and not
             ``force``.
+        AddressError: ``address`` is not a Ray address, or the run has 1 worker.
+        RayUnavailableError: ``address`` without Ray installed.
     """
 
     def __init__(
@@ -401,11 +404,12 @@ class Trainer:
         out: Path,
         force: bool = False,
         checkpoint_every: int = CHECKPOINT_EVERY,
+        address: str | None = None,
     ) -> None:
         folder = RunFolder(out)
         try:
             folder.claim_fresh((CHECKPOINT_FILE, OLD_CHECKPOINT_FILE, METRICS_FILE), force)
-            self._build(config, folder)
+            self._build(config, folder, address)
             self.pending_eval = True  # the evaluation of the untrained map, trial 0
             self.checkpoint_every = _interval(checkpoint_every)
             self.save()  # from here on every kill can be resumed
@@ -413,7 +417,9 @@ class Trainer:
             folder.release()
             raise
 
-    def _build(self, config: RunConfig, folder: RunFolder) -> None:
+    def _build(self, config: RunConfig, folder: RunFolder, address: str | None) -> None:
+        if address is not None:  # checked before any work
+            self.make_pool = ray_pools(address, config.workers)
         self.config, self.folder, self.out = config, folder, folder.path
         self.env = config.make_env()
         self.som: Map = (
@@ -422,7 +428,7 @@ class Trainer:
         self.trial, self.metrics_rows, self.pending_eval = 0, 0, False
         self.running = {"coarse_mm": float("nan"), "fine_mm": float("nan")}
         self.checkpoint_every = CHECKPOINT_EVERY
-        self.pool: WorkerPool | InProcessPool | None = None  # the workers, from the first round
+        self.pool: RoundPool | None = None  # the workers, from the first round
         self.spent: Collected | None = None  # what the workers spent, kept when they are closed
         self.learner_seconds = 0.0  # spent learning from the workers' trials
 
@@ -444,10 +450,16 @@ class Trainer:
 
     @classmethod
     def resume(
-        cls, out: Path, trials: int | None = None, checkpoint_every: int | None = None
+        cls,
+        out: Path,
+        trials: int | None = None,
+        checkpoint_every: int | None = None,
+        address: str | None = None,
     ) -> Trainer:
         """Continue the run saved in ``out``; ``trials`` extends (or shortens) its end,
-        ``checkpoint_every`` replaces its interval between checkpoints (None: the run's own).
+        ``checkpoint_every`` replaces its interval between checkpoints (None: the run's own),
+        ``address`` runs its workers as Ray actors (as in the constructor; a run continues bit
+        for bit wherever its workers ran before).
 
         Every entry of the checkpoint is checked (the run state, the map, the simulation state,
         against each other and against ``metrics.jsonl``) before ``metrics.jsonl`` is cut back
@@ -466,7 +478,7 @@ class Trainer:
                         f"--trials {trials} is below the {state.trial} trials this run has done"
                     )
                 config = replace(config, trials=trials)
-            trainer._build(config, folder)
+            trainer._build(config, folder, address)
             wanted = identity(trainer.env, config.lattice)
             check_identity(path, unit_identity(run, str(path)), wanted, tuple(wanted))
             trainer.som = load_map(path)
@@ -488,7 +500,7 @@ class Trainer:
             truncate_metrics(metrics, trainer.metrics_rows)
         except (KeyError, TypeError, ValueError, OverflowError) as exc:
             folder.release()
-            if isinstance(exc, CheckpointError):
+            if isinstance(exc, (CheckpointError, AddressError)):
                 raise
             raise CheckpointError(f"{out}: the run's state is damaged ({exc!r})") from exc
         except BaseException:
@@ -614,9 +626,10 @@ class Trainer:
 
     #: Trials of a round with workers (a constant of the code: a checkpoint does not store it).
     round_trials = ROUND_TRIALS
-    #: The workers of a run with ``workers`` >= 2: local processes (``InProcessPool`` runs the
-    #: same rounds in this process, for measurements and tests).
-    make_pool: Callable[[RunConfig, int], WorkerPool | InProcessPool] = WorkerPool
+    #: The workers of a run with ``workers`` >= 2: local processes; Ray actors with an
+    #: ``address`` (``ray_pools``; ``InProcessPool`` runs the same rounds in this process, for
+    #: measurements and tests).
+    make_pool: Callable[[RunConfig, int], RoundPool] = WorkerPool
 
     def _learn(self, trial: Trial, pairs: int, stale: bool = False) -> None:
         """Learn from ``trial`` (``pairs`` pairs of its moves; ``stale``: the map of a round's

@@ -9,8 +9,10 @@ and its map is the one of the round's start. So the learned map depends on the s
 round size only, not on N or on which worker ran which trial, and a round is redone exactly
 after a kill of the learner or of a worker.
 
-Workers are processes of the ``spawn`` context: each builds its env (and the renderer's context)
-itself, from the run's configuration.
+Workers are processes of the ``spawn`` context (:class:`WorkerPool`), or Ray actors
+(:mod:`envs.harness.ray_workers`, ``--address``): each builds its env (and the renderer's
+context) itself, from the run's configuration. :class:`RoundPool` is what they share: the map
+sent, the shares, a round redone after a worker died.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import pickle
 import signal
 import threading
 import time
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -32,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from envs.harness.trials import Trial, run_trial
+from learners.persistence import quoted
 
 #: Trials of a round: the staleness of a worker's map, in trials, at the end of a round. Chosen
 #: by measuring the held-out errors against the round size (docs/decisions.md, "Workers").
@@ -43,6 +47,9 @@ POLL_SECONDS = 0.05
 #: The first spawn key of the training trials' generators with workers (the streams of
 #: ``envs.harness.streams`` take (), (1,) and (2,)).
 TRIALS_KEY = 3
+#: What a worker sends back for its share of a round: its pid, its seconds spent on the
+#: trials, the trials.
+Share = tuple[int, float, list[Trial]]
 
 
 class WorkerError(RuntimeError):
@@ -114,13 +121,17 @@ def _exit_with(sentinel: int) -> None:
     os._exit(0)
 
 
-def _collect_in_worker(
-    blob: bytes, seed: int, indices: range, pairs: int
-) -> tuple[int, float, list[Trial]]:
-    """A task of a worker: (its pid, seconds spent on the trials, the trials)."""
+def timed_collect(env: Any, blob: bytes, seed: int, indices: Sequence[int], pairs: int) -> Share:
+    """:func:`collect` with the map pickled in ``blob``, as a worker runs its share: (its pid,
+    seconds spent on the trials, the trials)."""
     start = time.perf_counter()
-    trials = collect(_ENV, pickle.loads(blob), seed, indices, pairs)
+    trials = collect(env, pickle.loads(blob), seed, indices, pairs)
     return os.getpid(), time.perf_counter() - start, trials
+
+
+def _collect_in_worker(blob: bytes, seed: int, indices: range, pairs: int) -> Share:
+    """A task of a worker process: :func:`timed_collect` in its env."""
+    return timed_collect(_ENV, blob, seed, indices, pairs)
 
 
 @dataclass
@@ -134,24 +145,24 @@ class Collected:
     send_seconds: float = 0.0  # the learner's: pickling its map for the workers
 
 
-class WorkerPool:
-    """N local worker processes that run a round's trials (``spawn`` context; each builds the
-    run's env from ``config``). A worker that dies mid-round takes the round with it: the pool
-    is started again and the round redone (at most MAX_RESTARTS times per round)."""
+class WorkerDied(Exception):
+    """A worker died while it ran its share of a round (the message says how)."""
+
+
+class RoundPool(ABC):
+    """Workers that run a round's trials, each share with a copy of the map of the round's
+    start (:func:`timed_collect`): the rounds' bookkeeping. Subclasses run the shares
+    (:meth:`_run`, raising :class:`WorkerDied` when a worker died) and start their workers again
+    (:meth:`_restart`); a dead worker's round is redone with new workers, at most MAX_RESTARTS
+    times per round."""
 
     def __init__(self, config: Any, workers: int) -> None:
         self.config, self.workers = config, workers
         self.spent = Collected()
-        self.pids: set[int] = set()  # the workers that ran the last round's tasks
-        self._executor = self._start()
+        self.pids: set[int] = set()  # the workers that ran the last round's shares
 
-    def _start(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(
-            max_workers=self.workers,
-            mp_context=multiprocessing.get_context("spawn"),
-            initializer=_start_worker,
-            initargs=(self.config,),
-        )
+    #: Where a dead worker's error is to be read (in the error after MAX_RESTARTS).
+    errors_shown = "see their error above"
 
     def collect(
         self, som: Any, first: int, end: int, pairs: int, check: Callable[[], None]
@@ -167,22 +178,14 @@ class WorkerPool:
         blob = pickle.dumps(som)
         self.spent.send_seconds += time.perf_counter() - start
         parts = shares(first, end, self.workers)
+        last = WorkerDied()
         for _attempt in range(MAX_RESTARTS + 1):
             try:
-                futures = [
-                    self._executor.submit(_collect_in_worker, blob, self.config.seed, part, pairs)
-                    for part in parts
-                ]
-                while not all(f.done() for f in futures):
-                    wait(futures, timeout=POLL_SECONDS, return_when=FIRST_EXCEPTION)
-                    check()
-                    if any(f.done() and f.exception() is not None for f in futures):
-                        break
-                results = [f.result() for f in futures]
-            except BrokenProcessPool:
+                results = self._run(blob, parts, pairs, check)
+            except WorkerDied as died:
+                last = died
                 check()
-                self._executor.shutdown(wait=True, cancel_futures=True)
-                self._executor = self._start()
+                self._restart()
                 self.spent.restarts += 1
                 continue
             self.pids = {pid for pid, _, _ in results}
@@ -190,46 +193,88 @@ class WorkerPool:
             self.spent.trials += end - first
             return [trial for _, _, trials in results for trial in trials]
         raise WorkerError(
-            f"the workers died {MAX_RESTARTS + 1} times in the round of trials {first}..{end - 1}; "
-            "see their error above, or run with --workers 1"
+            f"the workers died {MAX_RESTARTS + 1} times in the round of trials {first}..{end - 1} "
+            f"(last: {quoted(last)}); {self.errors_shown}, or run with --workers 1"
         )
 
+    @abstractmethod
+    def _run(
+        self, blob: bytes, parts: list[range], pairs: int, check: Callable[[], None]
+    ) -> list[Share]:
+        """Each of ``parts`` run by a worker with the map in ``blob``, calling ``check`` every
+        POLL_SECONDS; the shares' results in the order of ``parts``."""
+
+    @abstractmethod
+    def _restart(self) -> None:
+        """End the workers and start new ones."""
+
+    @abstractmethod
     def close(self) -> None:
         """End the workers, also in the middle of a round (abandoned: a stopped run redoes it
         when it resumes)."""
+
+
+class WorkerPool(RoundPool):
+    """N local worker processes that run a round's trials (``spawn`` context; each builds the
+    run's env from ``config``). A worker that dies mid-round takes the round with it: the pool
+    is started again and the round redone."""
+
+    def __init__(self, config: Any, workers: int) -> None:
+        super().__init__(config, workers)
+        self._executor = self._start()
+
+    def _start(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_start_worker,
+            initargs=(self.config,),
+        )
+
+    def _run(
+        self, blob: bytes, parts: list[range], pairs: int, check: Callable[[], None]
+    ) -> list[Share]:
+        try:
+            futures = [
+                self._executor.submit(_collect_in_worker, blob, self.config.seed, part, pairs)
+                for part in parts
+            ]
+            while not all(f.done() for f in futures):
+                wait(futures, timeout=POLL_SECONDS, return_when=FIRST_EXCEPTION)
+                check()
+                if any(f.done() and f.exception() is not None for f in futures):
+                    break
+            return [f.result() for f in futures]
+        except BrokenProcessPool as exc:
+            raise WorkerDied(str(exc)) from None
+
+    def _restart(self) -> None:
+        self._executor.shutdown(wait=True, cancel_futures=True)
+        self._executor = self._start()
+
+    def close(self) -> None:
         processes = getattr(self._executor, "_processes", None) or {}  # the executor's own
         for process in list(processes.values()):
             process.terminate()
         self._executor.shutdown(wait=True, cancel_futures=True)
 
 
-class InProcessPool:
+class InProcessPool(RoundPool):
     """The rounds of :class:`WorkerPool` run in this process, one env for all shares: the same
     trials (they do not depend on who runs them). For measurements that need no second core
     (the round size's) and for tests."""
 
     def __init__(self, config: Any, workers: int) -> None:
-        self.config, self.workers = config, workers
-        self.spent = Collected()
-        self.pids = {os.getpid()}
+        super().__init__(config, workers)
         self._env = config.make_env()
 
-    def collect(
-        self, som: Any, first: int, end: int, pairs: int, check: Callable[[], None]
-    ) -> list[Trial]:
-        start = time.perf_counter()
-        blob = pickle.dumps(som)
-        self.spent.send_seconds += time.perf_counter() - start
-        copy = pickle.loads(blob)  # as a worker gets it
-        start = time.perf_counter()
-        trials = [
-            trial
-            for part in shares(first, end, self.workers)
-            for trial in collect(self._env, copy, self.config.seed, part, pairs)
-        ]
-        self.spent.worker_seconds += time.perf_counter() - start
-        self.spent.trials += end - first
-        return trials
+    def _run(
+        self, blob: bytes, parts: list[range], pairs: int, check: Callable[[], None]
+    ) -> list[Share]:
+        return [timed_collect(self._env, blob, self.config.seed, part, pairs) for part in parts]
+
+    def _restart(self) -> None:  # nothing dies here
+        pass
 
     def close(self) -> None:
         self._env.close()

@@ -11,11 +11,11 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from envs.harness.ray_cluster import need_ray, start_ray
 from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
 from envs.studies.sweep_grid import CELL_FILE, PROGRESS_FILE, cell_name, neurons, run_cell
@@ -28,43 +28,12 @@ DEFAULT_RETRIES = 3
 #: Seconds between progress lines while cells run.
 PROGRESS_EVERY_S = 10.0
 TABLE_JSON, TABLE_CSV = "results.json", "results.csv"
-LOOPBACK = "127.0.0.1"
 
 
 def _cell_task(config: dict, folder: str, checkpoint_every: int) -> dict:
     import envs  # noqa: F401  (registers the envs in the worker; chooses the GL back-end)
 
     return run_cell(RunConfig.from_stored(config), Path(folder), checkpoint_every)
-
-
-def start_ray(address: str | None, num_cpus: int) -> None:
-    """Connect to the cluster at ``address``, or start a local instance on the loopback
-    interface with ``num_cpus`` CPUs, no dashboard and no usage reporting."""
-    try:
-        import ray
-    except ImportError as exc:
-        raise SystemExit(
-            'sweeps need ray: pip install "visuomotor[sweep]" (or make test-sweep)'
-        ) from exc
-    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
-    env_vars = {
-        "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
-        "OMP_NUM_THREADS": "1",  # one cell per CPU: no BLAS threads on top
-        "RAY_USAGE_STATS_ENABLED": "0",
-    }
-    if address:
-        ray.init(address=address, runtime_env={"env_vars": env_vars}, log_to_driver=False)
-    else:  # Ray's single-machine mode (as on macOS): the node's address is the loopback one
-        os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"  # for the processes Ray starts
-        ray._private.ray_constants.ENABLE_RAY_CLUSTER = False  # for this one (read at import)
-        ray.init(
-            address="local",  # a new instance, never one a `ray start` left behind
-            num_cpus=num_cpus,
-            include_dashboard=False,
-            _node_ip_address=LOOPBACK,
-            runtime_env={"env_vars": env_vars},
-            log_to_driver=False,
-        )
 
 
 def run_sweep(
@@ -80,7 +49,7 @@ def run_sweep(
 
     Returns the rows of the finished cells, in the order of ``configs``.
     """
-    import ray
+    ray = need_ray("a sweep")
 
     cells = Path(out) / "cells"
     folders = [cells / cell_name(c) for c in configs]
