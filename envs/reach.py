@@ -281,7 +281,7 @@ class ReachEnv(ArmScene):
         self._make_spaces(normalize)
         self._human: HumanViewer | None = None  # render_mode="human": the window
         if render_mode == "human":  # opens while the first reset gets ready
-            self._human = HumanViewer(self.metadata["render_fps"])
+            self._human = self._new_viewer()
         #: Called with the simulated seconds since the move began after every physics step of a
         #: servo move (videos sample the motion with it); it may read ``data``, never write it.
         self.on_physics_step: Callable[[float], None] | None = None
@@ -412,7 +412,7 @@ class ReachEnv(ArmScene):
     def render(self) -> np.ndarray | None:
         if self.render_mode == "human":
             if self._human is None:  # closed before
-                self._human = HumanViewer(self.metadata["render_fps"])
+                self._human = self._new_viewer()
             self._human.show(self.model, self.data)
             return None
         if self.render_mode != "rgb_array":
@@ -514,6 +514,15 @@ class ReachEnv(ArmScene):
         """Marker pixels (G,) sensed after the last move (4 per marker); NaN in a camera that did
         not see a marker."""
         return self._detected_effector.copy()
+
+    def _new_viewer(self) -> HumanViewer:
+        """The window of ``render_mode="human"``, framed on this robot's workspace."""
+        return HumanViewer(
+            self.metadata["render_fps"],
+            self.spec_robot.workspace,
+            self.target_geom_ids,
+            self.effector_geom_ids,
+        )
 
     @property
     def human_viewer(self) -> HumanViewer | None:
