@@ -225,6 +225,14 @@ class GraspEnv(ReachEnv):
         #: evaluation and tests; a learner does not see them).
         self.target_joints = np.full(self.task.n_joints, np.nan)
 
+    def learner_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joint ranges (J,), (J,) rad a learner of this task is given: the action box if
+        the task's markers ask for it (``MarkerSet.learn_in_action_box``), else the joint
+        ranges."""
+        if self.markers.learn_in_action_box:
+            return self.action_lower.copy(), self.action_upper.copy()
+        return self.joint_lower.copy(), self.joint_upper.copy()
+
     def _action_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The task's joint box (``action_range="task"``) or the joint ranges."""
         if self.action_range == "joints":

@@ -49,6 +49,11 @@ class MarkerSet:
             fitted with their radius, as the arm's (a handle or a post may hide part of one),
             instead of from their blobs (the reach task's lone target sphere).
         start_key: the keyframe the arm starts every episode from.
+        ready_key: the keyframe of the task's taught pose, where a learner's joints start.
+        learn_in_action_box: a learner's joint ranges are the env's action box (a generated
+            arm's grasp task: its joints turn ±360°, and a map whose commands the env clipped
+            into the task's box learned from commands that were never made); else the joint
+            ranges (the PUMA's maps, as measured).
     """
 
     scene: str
@@ -61,6 +66,8 @@ class MarkerSet:
     target_colours: tuple[MarkerColour, ...] = (RED_TARGET,)
     target_outline: bool = False
     start_key: str = "home"
+    ready_key: str = "ready"
+    learn_in_action_box: bool = False
 
     @property
     def geoms(self) -> tuple[str, ...]:
@@ -93,8 +100,9 @@ PUMA_GRASP = MarkerSet(
 
 
 #: The grasp task of an arm generated from a DH table with a ``[grasp]`` section
-#: (``models/dh_mjcf.py`` writes its hand and ``scene_grasp.xml``): the PUMA's markers, without
-#: its gripper and the object's handle; the arm starts every episode at ``home``.
+#: (``models/dh_mjcf.py`` writes its hand, ``scene_grasp.xml`` and the keyframe ``grasp_ready``):
+#: the PUMA's markers, without its gripper and the object's handle; the arm starts every episode
+#: at ``home``.
 GENERATED_GRASP = MarkerSet(
     scene="scene_grasp.xml",
     site="tcp",
@@ -105,6 +113,8 @@ GENERATED_GRASP = MarkerSet(
     effector_colours=GRASP_HAND,
     target_colours=GRASP_OBJECT,
     target_outline=True,
+    ready_key="grasp_ready",
+    learn_in_action_box=True,
 )
 
 
@@ -284,6 +294,9 @@ ROBOTS: dict[str, RobotSpec] = {
         sensed={7: "tcp"},
         markers={7: "marker_tcp"},
         tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link7's)
+        grasp=GENERATED_GRASP,
+        grasp_env="PandaGrasp-v0",
+        grasp_short="panda_grasp",
         default_runs=False,
     ),
 }

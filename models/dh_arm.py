@@ -64,7 +64,9 @@ class DHArm:
         controlled: the numbers of controlled joints the robot offers (the others at home).
         workspace_lower, workspace_upper: the box reach targets are drawn from (world, m).
         grasp_box: the pose task's half-widths (n,), rad: its objects are the hand's poses at
-            joints within them of ``ready`` (``models/dh_grasp.py``); None: no pose task.
+            joints within them of ``grasp_ready`` (``models/dh_grasp.py``); None: no pose task.
+        grasp_ready: the pose task's taught pose (n,), rad (keyframe ``grasp_ready``), None for
+            ``ready``'s.
     """
 
     name: str
@@ -86,6 +88,7 @@ class DHArm:
     workspace_lower: np.ndarray
     workspace_upper: np.ndarray
     grasp_box: np.ndarray | None = None
+    grasp_ready: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -192,7 +195,7 @@ def parse_table(raw: Mapping[str, Any], where: str = "DH table") -> DHArm:
     box_upper = _vector3(f"{where}: workspace", "upper", workspace["upper"])
     if not np.all(box_lower < box_upper):
         raise DHTableError(f"{where}: workspace lower must be below upper in x, y and z")
-    grasp_box = _grasp_box(where, raw.get("grasp"), len(a), scale)
+    grasp_box, grasp_ready = _grasp(where, raw.get("grasp"), len(a), scale, lower, upper)
     marker = _number(where, "marker_radius", raw.get("marker_radius", DEFAULT_MARKER_RADIUS))
     if marker <= 0:
         raise DHTableError(f"{where}: marker_radius must be > 0 (m)")
@@ -216,23 +219,34 @@ def parse_table(raw: Mapping[str, Any], where: str = "DH table") -> DHArm:
         workspace_lower=box_lower,
         workspace_upper=box_upper,
         grasp_box=grasp_box,
+        grasp_ready=grasp_ready,
     )
 
 
-def _grasp_box(where: str, raw: Any, n: int, scale: float) -> np.ndarray | None:
-    """The ``[grasp]`` section's ``joint_box`` (n,) half-widths, rad (None without a section)."""
+def _grasp(where: str, raw: Any, n: int, scale: float, lower: np.ndarray, upper: np.ndarray
+           ) -> tuple[np.ndarray | None, np.ndarray | None]:  # fmt: skip
+    """The ``[grasp]`` section's ``joint_box`` (n,) half-widths and optional ``ready`` (n,)
+    pose, rad (None, None without a section)."""
     if raw is None:
-        return None
-    usage = f"give [grasp] joint_box = [{n} half-widths > 0, in the table's angle_unit]"
-    if not isinstance(raw, dict) or set(raw) != {"joint_box"}:
-        raise DHTableError(f"{where}: [grasp] takes only joint_box; {usage}")
-    box = raw["joint_box"]
-    if not isinstance(box, list) or len(box) != n:
-        raise DHTableError(f"{where}: [grasp] joint_box is {box!r}; {usage}")
-    half = np.array([_number(f"{where}: grasp", "joint_box", v) for v in box]) * scale
-    if not np.all(half > 0):
+        return None, None
+    usage = (
+        f"give [grasp] joint_box = [{n} half-widths > 0] and optionally ready = [{n} angles in "
+        "the joint ranges], in the table's angle_unit"
+    )
+    if not isinstance(raw, dict) or "joint_box" not in raw or set(raw) - {"joint_box", "ready"}:
+        raise DHTableError(f"{where}: [grasp] takes joint_box and ready; {usage}")
+    values = {}
+    for key in raw:
+        column = raw[key]
+        if not isinstance(column, list) or len(column) != n:
+            raise DHTableError(f"{where}: [grasp] {key} is {column!r}; {usage}")
+        values[key] = np.array([_number(f"{where}: grasp", key, v) for v in column]) * scale
+    if not np.all(values["joint_box"] > 0):
         raise DHTableError(f"{where}: [grasp] joint_box has a half-width <= 0; {usage}")
-    return half
+    ready = values.get("ready")
+    if ready is not None and not np.all((lower <= ready) & (ready <= upper)):
+        raise DHTableError(f"{where}: [grasp] ready is outside the joint ranges; {usage}")
+    return values["joint_box"], ready
 
 
 # -- kinematics ---------------------------------------------------------------------------------

@@ -2,8 +2,9 @@
 
 The hand's tool frame is the tcp (``models.dh_arm``, F_n after the last joint), and it carries
 the marker frame of :mod:`models.marker_frame` (``models.dh_mjcf`` writes its markers). Objects
-are reachable by construction: joints are drawn uniformly from the task's joint box, ``ready``
-± the table's ``joint_box`` half-widths (inside the joint ranges), and the object is put where
+are reachable by construction: joints are drawn uniformly from the task's joint box, the task's
+taught pose (the table's ``[grasp] ready``, keyframe ``grasp_ready``; else ``ready``) ± its
+``joint_box`` half-widths (inside the joint ranges), and the object is put where
 the hand is at them (forward kinematics); the env draws again while the cameras cannot see it
 (``envs.grasp``). The exact pose IK is numerical (:func:`models.numeric_ik.solve_poses`) from
 the current joints, within the command box.
@@ -38,6 +39,13 @@ def tool_jacobian(arm: DHArm, theta: np.ndarray) -> np.ndarray:
     return np.swapaxes(np.concatenate([linear, z], axis=-1), -1, -2)
 
 
+def grasp_ready(arm: DHArm) -> np.ndarray:
+    """The pose task's taught pose (n,), rad: the table's ``[grasp] ready``, else ``ready``."""
+    from models.dh_mjcf import ready_pose  # it imports models.dh_arm, which builds this task
+
+    return ready_pose(arm) if arm.grasp_ready is None else arm.grasp_ready.copy()
+
+
 def task_joint_box(arm: DHArm, ready: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``ready`` (n,) ± the table's half-widths, inside the joint ranges (rad)."""
     if arm.grasp_box is None:
@@ -50,9 +58,7 @@ def task_joint_box(arm: DHArm, ready: np.ndarray) -> tuple[np.ndarray, np.ndarra
 def grasp_task(arm: DHArm) -> GraspTask:
     """The arm's :class:`~models.grasp_task.GraspTask` (module docstring); ValueError if its
     table has no ``[grasp]`` section."""
-    from models.dh_mjcf import ready_pose  # it imports models.dh_arm, which builds this task
-
-    ready = ready_pose(arm)
+    ready = grasp_ready(arm)
     lower, upper = task_joint_box(arm, ready)
     base = base_transform(arm)[:3, 3].copy()
 

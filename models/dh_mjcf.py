@@ -322,11 +322,25 @@ def robot_xml(arm: DHArm, inertia: np.ndarray | None = None) -> str:
         "    <!-- home: the table's home column; ready: the tcp at the target box's centre. -->",
         f'    <key name="home" qpos="{home}" ctrl="{home}"/>',
         f'    <key name="ready" qpos="{rdy}" ctrl="{rdy}"/>',
+        *grasp_key(arm),
         "  </keyframe>",
         "</mujoco>",
         "",
     ]
     return "\n".join(out)
+
+
+def grasp_key(arm: DHArm) -> list[str]:
+    """The keyframe ``grasp_ready``, the pose task's taught pose, for a table with ``[grasp]``."""
+    if arm.grasp_box is None:
+        return []
+    from models.dh_grasp import grasp_ready  # it builds on this module's ready_pose
+
+    pose = _vec(grasp_ready(arm))
+    return [
+        "    <!-- grasp_ready: the pose task's taught pose, the centre of its joint box. -->",
+        f'    <key name="grasp_ready" qpos="{pose}" ctrl="{pose}"/>',
+    ]
 
 
 def ready_pose(arm: DHArm) -> np.ndarray:
@@ -414,8 +428,10 @@ def scene_xml(arm: DHArm) -> str:
 
 def scene_grasp_xml(arm: DHArm) -> str:
     """``scene_grasp.xml``: ``scene.xml`` and the pose task's object, a mocap body carrying the
-    marker frame (red, green, blue) where the hand is at ``ready``."""
-    ready = joint_frames(arm, ready_pose(arm))[1]
+    marker frame (red, green, blue) where the hand is at ``grasp_ready``."""
+    from models.dh_grasp import grasp_ready  # it builds on this module's ready_pose
+
+    ready = joint_frames(arm, grasp_ready(arm))[1]
     spheres = [
         f'      <geom name="object_marker_{colour}" class="object_marker" pos="{_vec(offset)}" '
         f'rgba="{MARKER_RGBA[colour]}"/>'
@@ -479,11 +495,14 @@ def readme(arm: DHArm, table: str) -> str:
     a, d, alpha, theta = arm.tool
     grasp, grasp_file = "", ""
     if arm.grasp_box is not None:
+        from models.dh_grasp import grasp_ready  # it builds on this module's ready_pose
+
         half = ", ".join(f"{math.degrees(h):.6g}" for h in arm.grasp_box)
+        centre = ", ".join(f"{math.degrees(h):.6g}" for h in grasp_ready(arm))
         grasp = (
             f"\n\nThe pose task (`models/dh_grasp.py`): objects where the hand is at joints "
-            f"within ({half})° of `ready`, in the joint ranges; the hand carries the marker frame "
-            "of `models/marker_frame.py` at the tcp."
+            f"within ({half})° of the keyframe `grasp_ready` ({centre})°, in the joint ranges; "
+            "the hand carries the marker frame of `models/marker_frame.py` at the tcp."
         )
         grasp_file = (
             "\n| `scene_grasp.xml` | `scene.xml` and the pose task's object (mocap `object`, "

@@ -327,15 +327,17 @@ class RunConfig:
 
 
 def initial_grasp_map(config: RunConfig, env: gym.Env) -> HierarchicalSOM:
-    """A fresh hierarchical map for a grasp env from what a robot knows: the joint ranges, the
-    taught pose (keyframe ``ready``) at every leaf, and the image size (the map spreads its
-    position nodes over the image), as the grasp-learning study builds it."""
+    """A fresh hierarchical map for a grasp env from what a robot knows: its joint ranges
+    (``GraspEnv.learner_bounds``), the taught pose (the task's keyframe: ``ready``, a generated
+    arm's ``grasp_ready``) at every leaf, and the image size (the map spreads its position nodes
+    over the image), as the grasp-learning study builds it."""
     base = env.unwrapped
     joints = [base.model.joint(f"joint{i + 1}").qposadr[0] for i in range(base.joints)]
-    ready = base.model.key("ready").qpos[joints]
+    ready = base.model.key(base.markers.ready_key).qpos[joints]
+    lower, upper = base.learner_bounds()
     return HierarchicalSOM(
-        base.joint_lower,
-        base.joint_upper,
+        lower,
+        upper,
         ready.copy(),
         config.map,
         rng=np.random.default_rng(config.seed),
@@ -369,7 +371,7 @@ def initial_map(config: RunConfig, env: gym.Env, **options: Any) -> VisuomotorSO
             "scene's cameras (sensing needs the targets in view)"
         )
     joints = [base.model.joint(f"joint{i + 1}").qposadr[0] for i in range(base.joints)]
-    ready = base.model.key("ready").qpos[joints]
+    ready = base.model.key(base.markers.ready_key).qpos[joints]
     return VisuomotorSOM(
         base.joint_lower,
         base.joint_upper,
