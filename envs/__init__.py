@@ -1,7 +1,8 @@
 """Gymnasium environments and stereo camera sensing.
 
 Importing this package chooses the off-screen GL back-end (before mujoco is imported) and
-registers ``RiacsReach-v0``, ``PumaReach-v0``, ``PumaGrasp-v0``, ``PumaTrack-v0`` and
+registers ``RiacsReach-v0``, ``PumaReach-v0``, ``PumaGrasp-v0``, ``PumaTrack-v0``, the generated
+arms' envs (``Ur5eReach-v0``, ``Ur5eGrasp-v0``, ``PandaReach-v0``) and
 ``ArmReach-v0`` (a user's MJCF, :mod:`envs.arm_reach`) with
 Gymnasium: every robot's reach env and grasp env from the registry (:data:`envs.robots.ROBOTS`,
 :func:`register_robot`), and the PUMA's path-tracking env. ``gym.make`` returns the reach and
@@ -24,7 +25,8 @@ from models.paths import N_STEPS  # noqa: E402
 def register_robot(robot: str) -> None:
     """Register the envs of ``ROBOTS[robot]`` with Gymnasium: its reach env
     (``envs.reach:ReachEnv`` with ``robot`` and its fewest controlled joints; ``gym.make(...,
-    joints=n)`` for others), and its grasp env (``envs.grasp:GraspEnv``) if it has one. Importing
+    joints=n)`` for others), and its grasp env (``envs.grasp:GraspEnv`` with ``robot``) if it has
+    one. Importing
     ``envs`` does it for every robot; call it for an entry added later."""
     spec = ROBOTS[robot]
     gym.register(
@@ -38,6 +40,7 @@ def register_robot(robot: str) -> None:
         gym.register(
             id=spec.grasp_env,
             entry_point="envs.grasp:GraspEnv",
+            kwargs={"robot": robot},
             max_episode_steps=MAX_EPISODE_STEPS,
             additional_wrappers=(GOAL_ENV_WRAPPER,),  # compute_reward on what gym.make returns
         )

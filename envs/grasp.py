@@ -1,4 +1,4 @@
-"""GraspEnv: bring the PUMA's hand to an object's position and orientation, seen by two cameras."""
+"""GraspEnv: bring an arm's hand to an object's position and orientation, seen by two cameras."""
 
 from __future__ import annotations
 
@@ -12,18 +12,13 @@ from envs import arguments
 from envs.pose_reward import pose_reward_terms
 from envs.reach import PIXELS_HEIGHT, PIXELS_WIDTH, SUCCESS_THRESHOLD, ReachEnv
 from envs.reward import seen_flags
-from envs.robots import ROBOTS, MarkerSet, grasp_env_ids
+from envs.robots import MarkerSet, grasp_env_ids, robot_spec
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT
 from envs.step_info import StepInfo
-from models.puma560 import BASE_POS
-from models.puma560.grasp import (
-    OrientationRange,
-    marker_points,
-    orientation_angle,
-    sample_grasp_pose,
-    task_joint_box,
-)
+from models.grasp_task import GraspTask
+from models.marker_frame import marker_points, orientation_angle
+from models.puma560.grasp import OrientationRange
 from models.workspace import BoxWorkspace
 
 #: The Gymnasium ids of the grasp envs: every robot's of the registry (envs/robots.py).
@@ -45,7 +40,15 @@ ORIENTATION_WEIGHT = 0.1
 
 
 class GraspEnv(ReachEnv):
-    """Bring the PUMA 560's gripper to an object's pose, seen only through two cameras.
+    """Bring an arm's hand to an object's pose, seen only through two cameras.
+
+    Every robot of the registry whose model offers the pose task (``MODEL.grasp``,
+    :class:`~models.grasp_task.GraspTask`) has a grasp env: ``PumaGrasp-v0`` (below) and
+    ``Ur5eGrasp-v0``, an arm generated from a DH table with a ``[grasp]`` section (its hand
+    carries the same three markers at its tcp, without a gripper; its objects are the hand's
+    poses at joints drawn uniformly from its task's joint box, ``models.dh_grasp``; all its
+    joints are commanded, the box is the action space, the arm starts at ``home``, and it takes
+    no ``orientations``). The robot is ``robot``, set by the id.
 
     ``PumaGrasp-v0``: the PUMA 560 carries a two-finger gripper with three marker spheres
     (yellow, cyan, magenta, 24 mm: ``models.puma560.grasp.MARKER_OFFSETS`` in the tool frame of
@@ -133,11 +136,14 @@ class GraspEnv(ReachEnv):
     ``reward_unseen``.
 
     ## Arguments
+    - ``robot`` (``"puma560"``): the registry's robot (set by the id); a robot without a pose
+      task is refused with one line.
     - ``sensing`` (``"render"``): ``"render"``, ``"project"`` or ``"foveated"``, as in
       ``ReachEnv``; each marker is sensed like the reach task's one (foveated: the hand's
       markers in windows about the object's markers of their pairs).
     - ``control`` (``"servo"``): ``"servo"`` or ``"kinematic"``, as in ``ReachEnv``.
-    - ``orientations`` (``"yaw:90,tilt:45"``): the range of the objects' orientations, an
+    - ``orientations`` (None): the range of the objects' orientations, None for the robot's
+      default (the PUMA's ``"yaw:90,tilt:45"``; none for a generated arm), an
       :class:`~models.puma560.grasp.OrientationRange` or its spelling: ``"yaw:Y,tilt:T"``
       (degrees; the hand upright, turned by up to ±Y about the vertical, its approach tilted by
       up to T from it; Y ≤ 180, T ≤ 80) or ``"ball:A"`` (within A of the hand's orientation at
@@ -161,9 +167,10 @@ class GraspEnv(ReachEnv):
 
     def __init__(
         self,
+        robot: str = "puma560",
         sensing: str = "render",
         control: str = "servo",
-        orientations: str | OrientationRange = "yaw:90,tilt:45",
+        orientations: str | OrientationRange | None = None,
         action_range: str = "task",
         success_threshold: float = SUCCESS_THRESHOLD,
         orientation_threshold: float = ORIENTATION_THRESHOLD,
@@ -177,16 +184,25 @@ class GraspEnv(ReachEnv):
         terminate_on_success: bool = False,
     ) -> None:
         threshold = arguments.positive_number("orientation_threshold (rad)", orientation_threshold)
-        #: The range the objects' orientations are drawn from.
-        self.orientations = OrientationRange.parse(orientations)
+        spec = robot_spec(robot)
+        if spec.grasp is None or spec.kinematics.grasp is None:
+            valid = ", ".join(grasp_env_ids())
+            raise ValueError(
+                f"robot {spec.model!r} has no grasp task (no grasp markers in its registry "
+                f"entry and no MODEL.grasp); the grasp envs: {valid}"
+            )
+        #: The arm's pose task: kinematics, pose IK, object poses, joint box.
+        self.task: GraspTask = spec.kinematics.grasp
+        #: The range the objects' orientations are drawn from (None: the arm's joint box).
+        self.orientations = self.task.orientations(orientations)
         if not isinstance(action_range, str) or action_range not in ACTION_RANGES:
             raise ValueError(
                 f"unknown action_range {action_range!r}; valid: {', '.join(ACTION_RANGES)}"
             )
         self.action_range = action_range
         super().__init__(
-            robot="puma560",
-            joints=6,
+            robot=robot,
+            joints=self.task.n_joints,
             sensing=sensing,
             control=control,
             success_threshold=success_threshold,
@@ -205,26 +221,35 @@ class GraspEnv(ReachEnv):
         self._keep_arm = False  # the episode being reset starts where the last one ended
         self._cameras = [self.model.camera(name).id for name in self.stereo.camera_names]
         self._geom = np.zeros(1, dtype=np.int32)  # mj_ray's output: the geom hit
-        #: The exact IK joints (6,) rad that grasp the current object (ground truth, for
+        #: The exact IK joints (J,) rad that grasp the current object (ground truth, for
         #: evaluation and tests; a learner does not see them).
-        self.target_joints = np.full(6, np.nan)
+        self.target_joints = np.full(self.task.n_joints, np.nan)
+
+    def learner_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joint ranges (J,), (J,) rad a learner of this task is given: the action box if
+        the task's markers ask for it (``MarkerSet.learn_in_action_box``), else the joint
+        ranges."""
+        if self.markers.learn_in_action_box:
+            return self.action_lower.copy(), self.action_upper.copy()
+        return self.joint_lower.copy(), self.joint_upper.copy()
 
     def _action_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The task's joint box (``action_range="task"``) or the joint ranges."""
         if self.action_range == "joints":
             return super()._action_bounds()
-        return task_joint_box(self.orientations)
+        return self.task.joint_box(self.orientations)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         self._keep_arm = isinstance(options, dict) and options.get("keep_arm") is True
         return super().reset(seed=seed, options=options)
 
     def _task_markers(self, robot: str, joints: int) -> MarkerSet | None:
-        return ROBOTS[robot].grasp
+        return robot_spec(robot).grasp
 
     def _draw_target(self) -> tuple[np.ndarray, np.ndarray | None]:
-        """The object's position (3,) m and orientation quaternion (4,), from
-        :func:`~models.puma560.grasp.sample_grasp_pose` in the (shifted) workspace box."""
+        """The object's position (3,) m and orientation quaternion (4,), from the task's
+        ``sample`` (the PUMA's :func:`~models.puma560.grasp.sample_grasp_pose`) in the
+        (shifted) workspace box."""
         shift = self.perturbation.base_shift
         box = self.spec_robot.workspace
         box = BoxWorkspace(box.lower + shift, box.upper + shift)
@@ -233,8 +258,8 @@ class GraspEnv(ReachEnv):
         mujoco.mj_kinematics(self.model, probe)
         mujoco.mj_camlight(self.model, probe)
         while True:
-            pose, self.target_joints = sample_grasp_pose(
-                self.np_random, box, BASE_POS + shift, self.orientations
+            pose, self.target_joints = self.task.sample(
+                self.np_random, box, self.task.base + shift, self.orientations
             )
             inside = np.all(self.target_joints >= self.action_lower) and np.all(
                 self.target_joints <= self.action_upper

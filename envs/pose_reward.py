@@ -1,10 +1,10 @@
 """The grasp task's reward: one function for the step and for relabelled goals (HER).
 
-A goal is the 12 sensed pixels of three markers (``models.puma560.grasp.MARKER_OFFSETS``
+A goal is the 12 sensed pixels of three markers (``models.marker_frame.MARKER_OFFSETS``
 order), each (u_left, v_left, u_right, v_right). Each marker is triangulated by the stereo rig
 (:func:`envs.sensing.triangulation.triangulate_elementwise`), the frame's pose is the
 least-squares rigid fit of the known offsets to the three points
-(:func:`models.puma560.grasp.pose_from_points`), and
+(:func:`models.marker_frame.pose_from_points`), and
 
 ``reward = reward_distance + reward_orientation + reward_unseen`` with ``reward_distance`` minus
 the distance (m) between the two fitted origins, ``reward_orientation`` minus ``weight`` (m/rad)
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from envs.sensing.triangulation import CameraFloats, distance_elementwise, triangulate_elementwise
-from models.puma560.grasp import orientation_angle, pose_from_points
+from models.marker_frame import orientation_angle, pose_from_points
 
 #: Pixel coordinates per marker, and markers per goal.
 MARKER_PIXELS, MARKERS = 4, 3

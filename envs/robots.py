@@ -21,7 +21,7 @@ from envs.sensing.marker_detection import (
     RED_TARGET,
     MarkerColour,
 )
-from models.puma560.grasp import HAND_COLOURS, MARKER_COLOURS
+from models.marker_frame import HAND_COLOURS, MARKER_COLOURS
 from models.robot_model import RobotModel, robot_model
 from models.workspace import Workspace
 
@@ -49,6 +49,11 @@ class MarkerSet:
             fitted with their radius, as the arm's (a handle or a post may hide part of one),
             instead of from their blobs (the reach task's lone target sphere).
         start_key: the keyframe the arm starts every episode from.
+        ready_key: the keyframe of the task's taught pose, where a learner's joints start.
+        learn_in_action_box: a learner's joint ranges are the env's action box (a generated
+            arm's grasp task: its joints turn ±360°, and a map whose commands the env clipped
+            into the task's box learned from commands that were never made); else the joint
+            ranges (the PUMA's maps, as measured).
     """
 
     scene: str
@@ -61,6 +66,8 @@ class MarkerSet:
     target_colours: tuple[MarkerColour, ...] = (RED_TARGET,)
     target_outline: bool = False
     start_key: str = "home"
+    ready_key: str = "ready"
+    learn_in_action_box: bool = False
 
     @property
     def geoms(self) -> tuple[str, ...]:
@@ -92,6 +99,25 @@ PUMA_GRASP = MarkerSet(
 )
 
 
+#: The grasp task of an arm generated from a DH table with a ``[grasp]`` section
+#: (``models/dh_mjcf.py`` writes its hand, ``scene_grasp.xml`` and the keyframe ``grasp_ready``):
+#: the PUMA's markers, without its gripper and the object's handle; the arm starts every episode
+#: at ``home``.
+GENERATED_GRASP = MarkerSet(
+    scene="scene_grasp.xml",
+    site="tcp",
+    effector=PUMA_GRASP.effector,
+    target=PUMA_GRASP.target,
+    drawn=("hand_crossbar", "hand_post", "object_crossbar", "object_post"),
+    target_body="object",
+    effector_colours=GRASP_HAND,
+    target_colours=GRASP_OBJECT,
+    target_outline=True,
+    ready_key="grasp_ready",
+    learn_in_action_box=True,
+)
+
+
 class RobotSpecError(ValueError):
     """A robot entry that does not fit its model folder or the other entries."""
 
@@ -117,8 +143,9 @@ class RobotSpec:
             workspace is set for it); sensing images of another shape are refused.
         magnify: the arm is small in its cameras' images: films and the demo's scene images
             magnify the marker's neighbourhood.
-        grasp: the grasp task's markers, for a robot that has one (the PUMA: the grasp env
-            ``envs.grasp.GraspEnv`` is built on its geometry, ``models.puma560.grasp``).
+        grasp: the grasp task's markers, for a robot whose model offers the task (its
+            ``MODEL.grasp``, :class:`~models.grasp_task.GraspTask`, which the grasp env
+            ``envs.grasp.GraspEnv`` is built on).
         grasp_env: the Gymnasium id of that grasp task's env; grasp_short: its word in a sweep
             grid.
         reach: the arm's reach (m), for errors in % of it; workspace: where reach targets are
@@ -175,6 +202,11 @@ class RobotSpec:
             raise RobotSpecError(
                 f"robot {self.model!r}: give the grasp task's markers (grasp) and its env id "
                 "(grasp_env) together"
+            )
+        if self.grasp is not None and model.grasp is None:
+            raise RobotSpecError(
+                f"robot {self.model!r}: grasp markers are given, but models/{self.model}/ has no "
+                "pose task (MODEL.grasp; a DH table's [grasp] section gives one)"
             )
 
     def _robot_model(self) -> RobotModel:
@@ -249,6 +281,9 @@ ROBOTS: dict[str, RobotSpec] = {
         sensed={3: "tcp", 6: "tcp"},
         markers={3: "marker_tcp", 6: "marker_tcp"},
         tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link6's)
+        grasp=GENERATED_GRASP,
+        grasp_env="Ur5eGrasp-v0",
+        grasp_short="ur5e_grasp",
         default_runs=False,
     ),
     "panda": RobotSpec(
@@ -259,6 +294,9 @@ ROBOTS: dict[str, RobotSpec] = {
         sensed={7: "tcp"},
         markers={7: "marker_tcp"},
         tool_axes={"tcp": (0.0, 0.0, 1.0)},  # the flange's z (the site's frame is link7's)
+        grasp=GENERATED_GRASP,
+        grasp_env="PandaGrasp-v0",
+        grasp_short="panda_grasp",
         default_runs=False,
     ),
 }
@@ -310,8 +348,17 @@ def default_reach_env_ids() -> tuple[str, ...]:
 
 
 def grasp_env_ids() -> tuple[str, ...]:
-    """Every robot's grasp env id (``PumaGrasp-v0``)."""
+    """Every robot's grasp env id (``PumaGrasp-v0``, ``Ur5eGrasp-v0``)."""
     return tuple(spec.grasp_env for spec in ROBOTS.values() if spec.grasp_env is not None)
+
+
+def default_grasp_env_ids() -> tuple[str, ...]:
+    """The grasp env ids of the robots with :attr:`RobotSpec.default_runs` (``PumaGrasp-v0``)."""
+    return tuple(
+        spec.grasp_env
+        for spec in ROBOTS.values()
+        if spec.grasp_env is not None and spec.default_runs
+    )
 
 
 def robot_of_env(env_id: str) -> str:

@@ -63,6 +63,10 @@ class DHArm:
         marker_radius: the green marker sphere at the tcp (m).
         controlled: the numbers of controlled joints the robot offers (the others at home).
         workspace_lower, workspace_upper: the box reach targets are drawn from (world, m).
+        grasp_box: the pose task's half-widths (n,), rad: its objects are the hand's poses at
+            joints within them of ``grasp_ready`` (``models/dh_grasp.py``); None: no pose task.
+        grasp_ready: the pose task's taught pose (n,), rad (keyframe ``grasp_ready``), None for
+            ``ready``'s.
     """
 
     name: str
@@ -83,6 +87,8 @@ class DHArm:
     controlled: tuple[int, ...]
     workspace_lower: np.ndarray
     workspace_upper: np.ndarray
+    grasp_box: np.ndarray | None = None
+    grasp_ready: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -189,6 +195,7 @@ def parse_table(raw: Mapping[str, Any], where: str = "DH table") -> DHArm:
     box_upper = _vector3(f"{where}: workspace", "upper", workspace["upper"])
     if not np.all(box_lower < box_upper):
         raise DHTableError(f"{where}: workspace lower must be below upper in x, y and z")
+    grasp_box, grasp_ready = _grasp(where, raw.get("grasp"), len(a), scale, lower, upper)
     marker = _number(where, "marker_radius", raw.get("marker_radius", DEFAULT_MARKER_RADIUS))
     if marker <= 0:
         raise DHTableError(f"{where}: marker_radius must be > 0 (m)")
@@ -211,7 +218,35 @@ def parse_table(raw: Mapping[str, Any], where: str = "DH table") -> DHArm:
         controlled=tuple(sorted(set(controlled))),
         workspace_lower=box_lower,
         workspace_upper=box_upper,
+        grasp_box=grasp_box,
+        grasp_ready=grasp_ready,
     )
+
+
+def _grasp(where: str, raw: Any, n: int, scale: float, lower: np.ndarray, upper: np.ndarray
+           ) -> tuple[np.ndarray | None, np.ndarray | None]:  # fmt: skip
+    """The ``[grasp]`` section's ``joint_box`` (n,) half-widths and optional ``ready`` (n,)
+    pose, rad (None, None without a section)."""
+    if raw is None:
+        return None, None
+    usage = (
+        f"give [grasp] joint_box = [{n} half-widths > 0] and optionally ready = [{n} angles in "
+        "the joint ranges], in the table's angle_unit"
+    )
+    if not isinstance(raw, dict) or "joint_box" not in raw or set(raw) - {"joint_box", "ready"}:
+        raise DHTableError(f"{where}: [grasp] takes joint_box and ready; {usage}")
+    values = {}
+    for key in raw:
+        column = raw[key]
+        if not isinstance(column, list) or len(column) != n:
+            raise DHTableError(f"{where}: [grasp] {key} is {column!r}; {usage}")
+        values[key] = np.array([_number(f"{where}: grasp", key, v) for v in column]) * scale
+    if not np.all(values["joint_box"] > 0):
+        raise DHTableError(f"{where}: [grasp] joint_box has a half-width <= 0; {usage}")
+    ready = values.get("ready")
+    if ready is not None and not np.all((lower <= ready) & (ready <= upper)):
+        raise DHTableError(f"{where}: [grasp] ready is outside the joint ranges; {usage}")
+    return values["joint_box"], ready
 
 
 # -- kinematics ---------------------------------------------------------------------------------
@@ -350,7 +385,11 @@ def arm_kinematics(arm: DHArm, joints: int) -> ArmKinematics:
 
 def dh_robot_model(arm: DHArm) -> RobotModel:
     """The arm's :class:`RobotModel`: reach, the workspace box, the tcp kinematics for each
-    number of controlled joints it offers."""
+    number of controlled joints it offers, and the pose task if the table has ``[grasp]``."""
+    from models.dh_grasp import grasp_task  # it builds on this module's kinematics
+
     arms = {j: (lambda configuration, j=j: arm_kinematics(arm, j)) for j in arm.controlled}
     workspace = BoxWorkspace(arm.workspace_lower.copy(), arm.workspace_upper.copy())
-    return RobotModel(name=arm.name, reach=reach(arm), workspace=workspace, arms=arms)
+    grasp = None if arm.grasp_box is None else grasp_task(arm)
+    return RobotModel(name=arm.name, reach=reach(arm), workspace=workspace, arms=arms,
+                      grasp=grasp)  # fmt: skip

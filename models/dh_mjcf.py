@@ -29,9 +29,11 @@ from models.dh_arm import (
     elementary,
     fixed_factors,
     fixed_transforms,
+    joint_frames,
     reach,
     sample_reachable,
 )
+from models.marker_frame import HAND_COLOURS, MARKER_COLOURS, MARKER_OFFSETS
 
 CAMERA_ASPECT = 4 / 3  # width / height of the sensing images (320 x 240)
 CAMERA_MARGIN = 0.15  # the sampled workspace spans this much less than the image's half-size
@@ -45,6 +47,25 @@ DAMPING = 1.0  # N m s/rad, joint damping
 #: (:func:`servo_inertia`; kp = I ω², kv = 2 I ω: critically damped), as the PUMA's servos.
 SERVO_FREQUENCY = 30.0
 LINK_RGBA = "0.82 0.82 0.8 1"
+#: The pose task's markers' colours (the hand's and the object's, as the PUMA's scene has them).
+MARKER_RGBA = {
+    "yellow": "0.9 0.9 0.1 1", "cyan": "0.1 0.9 0.9 1", "magenta": "0.9 0.1 0.9 1",
+    "red": "0.9 0.1 0.1 1", "green": "0.1 0.9 0.1 1", "blue": "0.1 0.1 0.9 1",
+}  # fmt: skip
+HAND_MARKER_RADIUS = 0.024  # m: a fifth larger than the object's, which it encloses at the grasp
+OBJECT_MARKER_RADIUS = 0.02  # m
+POST_RADIUS = 0.004  # m: the marker frame's crossbar and post
+#: The pose task's default classes in ``<robot>.xml`` (an arm whose table has ``[grasp]``).
+HAND_DEFAULTS = [
+    '      <default class="post">',
+    f'        <geom group="2" type="capsule" size="{POST_RADIUS}" contype="0" conaffinity="0" '
+    'mass="0" rgba="0.5 0.5 0.5 1"/>',
+    "      </default>",
+    '      <default class="hand_marker">',
+    f'        <geom group="4" type="sphere" size="{HAND_MARKER_RADIUS}" contype="0" '
+    'conaffinity="0" mass="0"/>',
+    "      </default>",
+]
 JOINT_RGBA = "0.25 0.25 0.28 1"
 
 
@@ -252,6 +273,7 @@ def robot_xml(arm: DHArm, inertia: np.ndarray | None = None) -> str:
         f'        <geom group="4" type="sphere" size="{_f(arm.marker_radius)}" contype="0" '
         'conaffinity="0" rgba="0.1 0.9 0.1 1"/>',
         "      </default>",
+        *(HAND_DEFAULTS if arm.grasp_box is not None else []),
         "    </default>",
         "  </default>",
         "  <worldbody>",
@@ -284,6 +306,8 @@ def robot_xml(arm: DHArm, inertia: np.ndarray | None = None) -> str:
     indent = "  " * (3 + arm.n)
     out.append(f'{indent}<site name="tcp" {_pose(tcp)} size="0.005" group="5"/>')
     out.append(f'{indent}<geom name="marker_tcp" class="marker" pos="{_vec(tcp[:3, 3])}"/>')
+    if arm.grasp_box is not None:
+        out += [indent + line for line in hand_geoms(tcp)]
     for i in reversed(range(arm.n)):
         out.append("  " * (3 + i) + "</body>")
     out += ["    </body>", "  </worldbody>", "  <actuator>"]
@@ -298,6 +322,7 @@ def robot_xml(arm: DHArm, inertia: np.ndarray | None = None) -> str:
         "    <!-- home: the table's home column; ready: the tcp at the target box's centre. -->",
         f'    <key name="home" qpos="{home}" ctrl="{home}"/>',
         f'    <key name="ready" qpos="{rdy}" ctrl="{rdy}"/>',
+        *grasp_key(arm),
         "  </keyframe>",
         "</mujoco>",
         "",
@@ -305,11 +330,42 @@ def robot_xml(arm: DHArm, inertia: np.ndarray | None = None) -> str:
     return "\n".join(out)
 
 
+def grasp_key(arm: DHArm) -> list[str]:
+    """The keyframe ``grasp_ready``, the pose task's taught pose, for a table with ``[grasp]``."""
+    if arm.grasp_box is None:
+        return []
+    from models.dh_grasp import grasp_ready  # it builds on this module's ready_pose
+
+    pose = _vec(grasp_ready(arm))
+    return [
+        "    <!-- grasp_ready: the pose task's taught pose, the centre of its joint box. -->",
+        f'    <key name="grasp_ready" qpos="{pose}" ctrl="{pose}"/>',
+    ]
+
+
 def ready_pose(arm: DHArm) -> np.ndarray:
     """All n joints (n,): the fewest controlled joints' ``ready`` (the tcp at the target box's
     centre), the others at home."""
     joints = arm.controlled[0]
     return np.concatenate([arm_kinematics(arm, joints).ready, arm.home[joints:]])
+
+
+def hand_geoms(tcp: np.ndarray) -> list[str]:
+    """The pose task's hand in the last link's frame, the tool frame at ``tcp`` (4, 4) there: the
+    marker frame's spheres (:data:`~models.marker_frame.MARKER_OFFSETS`) in the hand's colours,
+    on a crossbar and a post as the PUMA's."""
+    red, green, blue = (tcp[:3, :3] @ offset + tcp[:3, 3] for offset in MARKER_OFFSETS)
+    root = tcp[:3, :3] @ np.array([0.0, 0.0, MARKER_OFFSETS[0, 2]]) + tcp[:3, 3]
+    lines = [
+        "<!-- The pose task's hand (drawn only by its grasp env; the reach task hides it): the "
+        "marker frame of models/marker_frame.py at the tcp, massless, never colliding. -->",
+        f'<geom name="hand_crossbar" class="post" fromto="{_vec(green)} {_vec(red)}"/>',
+        f'<geom name="hand_post" class="post" fromto="{_vec(root)} {_vec(blue)}"/>',
+    ]
+    for colour, centre in zip(HAND_COLOURS, (red, green, blue), strict=True):
+        lines.append(f'<geom name="hand_marker_{colour}" class="hand_marker" '
+                     f'pos="{_vec(centre)}" rgba="{MARKER_RGBA[colour]}"/>')  # fmt: skip
+    return lines
 
 
 # -- the scene -----------------------------------------------------------------------------------
@@ -370,6 +426,50 @@ def scene_xml(arm: DHArm) -> str:
     ])  # fmt: skip
 
 
+def scene_grasp_xml(arm: DHArm) -> str:
+    """``scene_grasp.xml``: ``scene.xml`` and the pose task's object, a mocap body carrying the
+    marker frame (red, green, blue) where the hand is at ``grasp_ready``."""
+    from models.dh_grasp import grasp_ready  # it builds on this module's ready_pose
+
+    ready = joint_frames(arm, grasp_ready(arm))[1]
+    spheres = [
+        f'      <geom name="object_marker_{colour}" class="object_marker" pos="{_vec(offset)}" '
+        f'rgba="{MARKER_RGBA[colour]}"/>'
+        for colour, offset in zip(MARKER_COLOURS, MARKER_OFFSETS, strict=True)
+    ]
+    red, green, blue = MARKER_OFFSETS
+    return "\n".join([
+        f"<!-- {arm.title} pose-task scene: generated by visuomotor-make-arm "
+        "(models/dh_mjcf.py). The reach scene and the object, the marker frame of "
+        "models/marker_frame.py in its own frame: the hand grasps it when its tool frame (site "
+        "tcp) is the object's frame. -->",
+        f'<mujoco model="{arm.name} grasp scene">',
+        '  <include file="scene.xml"/>',
+        "  <default>",
+        '    <default class="object">',
+        '      <geom group="1" contype="0" conaffinity="0" mass="0" rgba="0.5 0.5 0.5 1"/>',
+        '      <default class="object_post">',
+        f'        <geom type="capsule" size="{POST_RADIUS}"/>',
+        "      </default>",
+        '      <default class="object_marker">',
+        f'        <geom type="sphere" size="{OBJECT_MARKER_RADIUS}"/>',
+        "      </default>",
+        "    </default>",
+        "  </default>",
+        "  <worldbody>",
+        f'    <body name="object" mocap="true" {_pose(ready)}>',
+        f'      <geom name="object_crossbar" class="object_post" fromto="{_vec(green)} '
+        f'{_vec(red)}"/>',
+        f'      <geom name="object_post" class="object_post" fromto="0 0 {_f(red[2])} '
+        f'{_vec(blue)}"/>',
+        *spheres,
+        "    </body>",
+        "  </worldbody>",
+        "</mujoco>",
+        "",
+    ])  # fmt: skip
+
+
 # -- the folder ----------------------------------------------------------------------------------
 
 INIT_PY = '''"""{title}: generated from its DH table ({table}) by visuomotor-make-arm; its
@@ -393,6 +493,25 @@ def readme(arm: DHArm, table: str) -> str:
         for i in range(arm.n)
     )
     a, d, alpha, theta = arm.tool
+    grasp, grasp_file = "", ""
+    if arm.grasp_box is not None:
+        from models.dh_grasp import grasp_ready  # it builds on this module's ready_pose
+
+        half = ", ".join(f"{math.degrees(h):.6g}" for h in arm.grasp_box)
+        centre = ", ".join(f"{math.degrees(h):.6g}" for h in grasp_ready(arm))
+        grasp = (
+            f"\n\nThe pose task (`models/dh_grasp.py`): objects where the hand is at joints "
+            f"within ({half})° of the keyframe `grasp_ready` ({centre})°, in the joint ranges; "
+            "the hand carries the marker frame of `models/marker_frame.py` at the tcp."
+        )
+        grasp_file = (
+            "\n| `scene_grasp.xml` | `scene.xml` and the pose task's object (mocap `object`, "
+            "its marker frame) |"
+        )
+    scenes = (
+        "| `scene.xml` | the robot, floor, light, cameras `cam_left`, `cam_right`, `overview`, "
+        f"`target` |{grasp_file}"
+    )
     return f"""# {arm.title}
 
 Generated from its DH table by `visuomotor-make-arm models/{arm.name}/{table} --out
@@ -413,7 +532,7 @@ Tool (fixed, after joint {arm.n}): a = {a:.6g} m, d = {d:.6g} m, α = {math.degr
 θ = {math.degrees(theta):.6g}°. Frame 0 (site `base`) stands {arm.base_height:.6g} m above the
 floor. Reach {reach(arm):.4f} m (the tcp's largest distance from `base` over
 {WORKSPACE_SAMPLES} random joint vectors). Reach targets: the box
-{_vec(arm.workspace_lower)} .. {_vec(arm.workspace_upper)} m (world).
+{_vec(arm.workspace_lower)} .. {_vec(arm.workspace_upper)} m (world).{grasp}
 
 ## What is not from the source
 
@@ -429,7 +548,7 @@ is compensated (`gravcomp`). The cameras `cam_left` and
 | file | holds |
 |---|---|
 | `{arm.name}.xml` | the robot: joints, servos, sites `base`, `tcp`, the marker, keyframes |
-| `scene.xml` | the robot, floor, light, cameras `cam_left`, `cam_right`, `overview`, `target` |
+{scenes}
 | `{table}` | the DH table this folder is generated from |
 | `__init__.py` | `MODEL`: the robot's `RobotModel`, read from the table |
 """
@@ -457,6 +576,8 @@ def write_folder(arm: DHArm, folder: Path, table_name: str, table_text: str) -> 
         table_name: table_text,
         "__init__.py": INIT_PY.format(title=arm.title, table=table_name),
     }
+    if arm.grasp_box is not None:
+        files["scene_grasp.xml"] = scene_grasp_xml(arm)
     written = []
     for name, text in files.items():
         write_atomically(folder / name, text)

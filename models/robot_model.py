@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from models import UnknownModelError, available_models
 from models.arms import ArmKinematics
 from models.chain import RobotChain
+from models.grasp_task import GraspTask
 from models.workspace import Workspace
 
 
@@ -32,6 +33,8 @@ class RobotModel:
         chain: the chain of every kinematic parameter from the base to the tool point, for the
             kinematic-accuracy analysis (``models.analyses.nemecek_accuracy``); None: no such
             analysis for this robot.
+        grasp: the pose task's kinematics, object poses and IK, for a robot that offers the
+            task (:class:`~models.grasp_task.GraspTask`); None: no pose task.
     """
 
     name: str
@@ -39,6 +42,7 @@ class RobotModel:
     workspace: Workspace
     arms: Mapping[int, Callable[[str], ArmKinematics]]
     chain: Callable[[], RobotChain] | None = None
+    grasp: GraspTask | None = None
 
     @property
     def joint_options(self) -> tuple[int, ...]:

@@ -126,7 +126,7 @@ def test_the_task_box_holds_every_grasp_and_random_actions_in_it_see_the_hand():
 
 
 def test_registration_wraps_the_goal_env():
-    assert GRASP_ENV_IDS == ("PumaGrasp-v0",)
+    assert GRASP_ENV_IDS == ("PumaGrasp-v0", "Ur5eGrasp-v0", "PandaGrasp-v0")  # the registry's
     env = gym.make("PumaGrasp-v0", sensing="project", control="kinematic")
     assert isinstance(env, GoalEnvWrapper) and env.spec.max_episode_steps == 4
     obs, info = env.reset(seed=1)

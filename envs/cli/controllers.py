@@ -119,11 +119,10 @@ def make_pose_floor(spec: str, env) -> Controller:
     the object's pose triangulated with the env's nominal cameras; ValueError on a reach env."""
     from envs.grasp import GraspEnv
     from learners.baselines.pose_ik import PoseIK, PoseJacobianIK
-    from models.puma560 import BASE_POS
 
     base = env.unwrapped
     if not isinstance(base, GraspEnv):
         raise ValueError(f"{spec} needs a grasp env (PumaGrasp-v0); for a reach env use {SPECS}")
     floor = PoseIK if spec == "pose_ik" else PoseJacobianIK
     box = {"lower": base.action_lower, "upper": base.action_upper}  # the commands it may send
-    return floor(base.nominal_stereo.triangulate, BASE_POS, **box)
+    return floor(base.nominal_stereo.triangulate, base.task.base, **box, task=base.task)

@@ -32,7 +32,7 @@ from envs.harness.film import TrialFilm, side_by_side
 from envs.harness.grasp_film import GraspFilm
 from envs.harness.streams import seed_env
 from envs.harness.video import annotate
-from envs.robots import default_reach_env_ids
+from envs.robots import default_grasp_env_ids, default_reach_env_ids
 from learners.natenet import PathTracker
 from learners.persistence import write_atomic
 
@@ -148,7 +148,7 @@ def main(argv: list[str] | None = None) -> list[Path]:
     options.SEED.add(parser, default=1)
     args = parser.parse_args(argv)
     written = []
-    for env_id in (*default_reach_env_ids(), *GRASP_ENV_IDS):
+    for env_id in (*default_reach_env_ids(), *default_grasp_env_ids()):
         with tempfile.TemporaryDirectory(prefix="docs_media_") as folder:
             checkpoint = trained_map(env_id, args.seed, Path(folder) / "run")
             frames = map_frames(env_id, checkpoint, args.trials, args.seed)

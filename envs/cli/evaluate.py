@@ -180,7 +180,8 @@ def main(argv: list[str] | None = None) -> dict:
     with cli.removed_if_refused(out):  # a failed write leaves no empty folder
         out.mkdir(parents=True, exist_ok=True)
         if pose:
-            print(f"objects' orientations: {env.unwrapped.orientations.spec()}")
+            spread = env.unwrapped.orientations
+            print(f"objects' orientations: {'the joint box' if spread is None else spread.spec()}")
         summary = {"env": env_id, "sensing": sensing, "control": control, "seed": args.seed,
                    "width": width, "height": height,
                    "reach_m": env.unwrapped.reach, "controllers": rows}  # fmt: skip

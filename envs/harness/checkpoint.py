@@ -302,7 +302,7 @@ def check_map_fits(path: str | os.PathLike, som: Map, env: Any) -> None:
     if recorded is not None:
         keys = ("robot", "joints", "width", "height")
         check_identity(path, recorded, identity(env, som.lattice), keys)
-    lower, upper = base.joint_lower, base.joint_upper
+    lower, upper = base.learner_bounds() if pose else (base.joint_lower, base.joint_upper)
     if som.lower.shape != lower.shape or not (
         np.allclose(som.lower, lower) and np.allclose(som.upper, upper)
     ):

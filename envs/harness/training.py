@@ -57,7 +57,8 @@ from learners.som.options import (
     run_options,
     run_spelling,
 )
-from models.puma560.grasp import NARROW, WIDE, OrientationRange
+from models.grasp_task import GraspTask
+from models.puma560.grasp import NARROW
 
 #: Run settings that ``--resume`` may change: ``trials`` (to go on past the old end; the map's
 #: schedules then stay at their final values). Everything else defines the run.
@@ -104,6 +105,14 @@ def check_env_image_size(env_id: str, width: int, height: int) -> tuple[int, int
     """:func:`envs.sizes.check_image_size` against the cameras of the registered reach or grasp env
     ``env_id`` (ImageSizeError unless (width, height) px suits them)."""
     return check_image_size(width, height, ROBOTS[robot_of_env(env_id)].image_aspect)
+
+
+def grasp_task(env_id: str) -> GraspTask:
+    """The pose task of the robot of the grasp env ``env_id``."""
+    task = ROBOTS[robot_of_env(env_id)].kinematics.grasp
+    if task is None:
+        raise ValueError(f"{env_id} is not a grasp env; the grasp envs: {GRASP_ENV_IDS}")
+    return task
 
 
 @dataclass(frozen=True)
@@ -179,8 +188,8 @@ class RunConfig:
                 "yet learn from trials an earlier copy of it made; take 1 worker"
             )
         if self.grasp:
-            spelled = WIDE if self.orientations is None else self.orientations
-            object.__setattr__(self, "orientations", OrientationRange.parse(spelled).spec())
+            chosen = grasp_task(self.env).orientations(self.orientations)  # ValueError if none
+            object.__setattr__(self, "orientations", None if chosen is None else chosen.spec())
             pairs = TRAINING_PAIRS if self.training_pairs is None else self.training_pairs
             if isinstance(pairs, bool) or not isinstance(pairs, int) or not 1 <= pairs <= 8:
                 raise ValueError(f"training_pairs is {pairs!r}; it takes an integer in 1..8")
@@ -268,8 +277,10 @@ class RunConfig:
         stored = dict(stored)
         if "image_size" in stored:
             stored["height"], stored["width"] = stored.pop("image_size")
-        if stored.get("env") in GRASP_ENV_IDS:
-            stored.setdefault("orientations", FIRST_ORIENTATIONS)
+        env = stored.get("env")
+        if env in GRASP_ENV_IDS:
+            if grasp_task(env).default_orientations is not None:  # the arm has ranges
+                stored.setdefault("orientations", FIRST_ORIENTATIONS)
             stored.setdefault("training_pairs", FIRST_TRAINING_PAIRS)
         return cls.of(**stored)
 
@@ -313,15 +324,17 @@ class RunConfig:
 
 
 def initial_grasp_map(config: RunConfig, env: gym.Env) -> HierarchicalSOM:
-    """A fresh hierarchical map for a grasp env from what a robot knows: the joint ranges, the
-    taught pose (keyframe ``ready``) at every leaf, and the image size (the map spreads its
-    position nodes over the image), as the grasp-learning study builds it."""
+    """A fresh hierarchical map for a grasp env from what a robot knows: its joint ranges
+    (``GraspEnv.learner_bounds``), the taught pose (the task's keyframe: ``ready``, a generated
+    arm's ``grasp_ready``) at every leaf, and the image size (the map spreads its position nodes
+    over the image), as the grasp-learning study builds it."""
     base = env.unwrapped
     joints = [base.model.joint(f"joint{i + 1}").qposadr[0] for i in range(base.joints)]
-    ready = base.model.key("ready").qpos[joints]
+    ready = base.model.key(base.markers.ready_key).qpos[joints]
+    lower, upper = base.learner_bounds()
     return HierarchicalSOM(
-        base.joint_lower,
-        base.joint_upper,
+        lower,
+        upper,
         ready.copy(),
         config.map,
         rng=np.random.default_rng(config.seed),
@@ -355,7 +368,7 @@ def initial_map(config: RunConfig, env: gym.Env, **options: Any) -> VisuomotorSO
             "scene's cameras (sensing needs the targets in view)"
         )
     joints = [base.model.joint(f"joint{i + 1}").qposadr[0] for i in range(base.joints)]
-    ready = base.model.key("ready").qpos[joints]
+    ready = base.model.key(base.markers.ready_key).qpos[joints]
     return VisuomotorSOM(
         base.joint_lower,
         base.joint_upper,

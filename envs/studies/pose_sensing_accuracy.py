@@ -17,7 +17,7 @@ from envs.grasp import GraspEnv
 from envs.harness.streams import seed_env
 from envs.pose_reward import goal_poses
 from envs.sensing.triangulation import camera_floats
-from models.puma560.grasp import orientation_angle
+from models.marker_frame import orientation_angle
 
 POSES = 300
 

@@ -1,13 +1,15 @@
-"""The floors of the PUMA's pose task through the cameras: exact pose IK and damped least squares.
+"""The floors of the pose task through the cameras: exact pose IK and damped least squares.
 
 Both see the object as 12 pixels u (three markers × (u_left, v_left, u_right, v_right), in the
-order of :data:`~models.puma560.grasp.MARKER_OFFSETS`), triangulate the three markers with the
-nominal cameras and fit the object's pose to them (:func:`~models.puma560.grasp.pose_from_points`).
+order of :data:`~models.marker_frame.MARKER_OFFSETS`), triangulate the three markers with the
+nominal cameras and fit the object's pose to them (:func:`~models.marker_frame.pose_from_points`).
+The arm is a :class:`~models.grasp_task.GraspTask` (default: the PUMA's).
 
-- :class:`PoseIK`: the closed form (:func:`~models.puma560.inverse.pose_ik_all`), the valid
-  branch nearest the current joints (the last command, else ``start``).
+- :class:`PoseIK`: the arm's exact pose IK (the PUMA's closed form, the valid branch nearest
+  the current joints, :func:`~models.puma560.grasp.nearest_pose_ik`; a generated arm's numerical
+  pose IK from the current joints), the current joints being the last command, else ``start``.
 - :class:`PoseJacobianIK`: damped least squares on the pose error from the current joints,
-  Δθ = Jᵀ (J Jᵀ + λ² I)⁻¹ (Δp; Δφ), J the geometric Jacobian of frame 6 (m and rad rows),
+  Δθ = Jᵀ (J Jᵀ + λ² I)⁻¹ (Δp; Δφ), J the geometric Jacobian of the tool frame (m and rad rows),
   Δφ the rotation vector from the hand's orientation to the goal's.
 
 A fine move ``act(u, v)`` re-aims from the sensed hand pose H (from v): the goal becomes
@@ -24,9 +26,9 @@ import numpy as np
 
 from learners.base import Controller
 from learners.pose_pixels import check_pose_pixels
-from models.puma560.grasp import READY, pose_from_points
-from models.puma560.inverse import pose_ik_all
-from models.puma560.kinematics import DH, frames, jacobian
+from models.grasp_task import GraspTask
+from models.marker_frame import pose_from_points
+from models.robot_model import robot_model
 from models.rotations import orientation_error
 
 Triangulate = Callable[[np.ndarray], np.ndarray]  # (N, 4) pixels -> (N, 3) world points, m
@@ -41,10 +43,12 @@ class _PoseFloor(Controller):
 
     Args:
         triangulate: pixels (N, 4) -> world points (N, 3), the nominal cameras.
-        base: world position (3,) of the PUMA's frame 0, m.
-        start: joints (6,) to start from and to return to on ``reset()`` (default ``READY``).
-        lower, upper: the box (6,) rad every command lies in (default: the joint ranges; an
+        base: world position (3,) of the arm's frame 0, m.
+        start: joints (J,) to start from and to return to on ``reset()`` (default: the task's
+            ``ready``).
+        lower, upper: the box (J,) rad every command lies in (default: the joint ranges; an
             env's action space may be narrower: ``PumaGrasp-v0``'s task box).
+        task: the arm (default: the PUMA's, ``models.puma560.MODEL.grasp``).
     """
 
     def __init__(
@@ -54,19 +58,25 @@ class _PoseFloor(Controller):
         start: np.ndarray | None = None,
         lower: np.ndarray | None = None,
         upper: np.ndarray | None = None,
+        task: GraspTask | None = None,
     ) -> None:
+        if task is None:
+            task = robot_model("puma560").grasp
+            assert task is not None  # the PUMA's model has its pose task
+        self.task = task
         if not callable(triangulate):
             raise TypeError("triangulate must be callable: (N, 4) pixels -> (N, 3) world points")
         self.triangulate = triangulate
         self.base = np.asarray(base, dtype=float)
         if self.base.shape != (3,) or not np.all(np.isfinite(self.base)):
             raise ValueError(f"base must be a finite world position (3,), got {self.base}")
-        start = READY if start is None else np.asarray(start, dtype=float)
-        if start.shape != (6,) or not np.all(np.isfinite(start)):
-            raise ValueError(f"start must be 6 finite joint angles (rad), got {start}")
-        self.lower = DH.lower.copy() if lower is None else np.maximum(lower, DH.lower)
-        self.upper = DH.upper.copy() if upper is None else np.minimum(upper, DH.upper)
-        if self.lower.shape != (6,) or not np.all(self.lower <= self.upper):
+        n = task.n_joints
+        start = task.ready if start is None else np.asarray(start, dtype=float)
+        if start.shape != (n,) or not np.all(np.isfinite(start)):
+            raise ValueError(f"start must be {n} finite joint angles (rad), got {start}")
+        self.lower = task.lower.copy() if lower is None else np.maximum(lower, task.lower)
+        self.upper = task.upper.copy() if upper is None else np.minimum(upper, task.upper)
+        if self.lower.shape != (n,) or not np.all(self.lower <= self.upper):
             raise ValueError(f"lower {self.lower} and upper {self.upper} are not a joint box")
         self.start = np.clip(start, self.lower, self.upper)
         self.previous = self.start.copy()
@@ -85,7 +95,7 @@ class _PoseFloor(Controller):
         return pose
 
     def act(self, u: np.ndarray, v: np.ndarray | None = None, explore: bool = False) -> np.ndarray:
-        """Joints (6,) that put the hand on the object seen at u (12,); given the hand seen at
+        """Joints (J,) that put the hand on the object seen at u (12,); given the hand seen at
         v (12,) after the previous command, re-aimed by the sensed hand-to-object transform."""
         u = check_pose_pixels("u", u)
         goal = self.sensed_pose(u)
@@ -94,29 +104,24 @@ class _PoseFloor(Controller):
             if self._goal is None:
                 raise ValueError("a fine move act(u, v) needs a coarse act(u) first (after reset)")
             hand = self.sensed_pose(v)
-            goal = frames(self.previous)[6] @ np.linalg.solve(hand, goal)
+            goal = self.task.forward(self.previous) @ np.linalg.solve(hand, goal)
         theta, self.last_reachable = self.solve(goal, self.previous)
         self.previous, self._goal = theta, goal
         return theta.copy()
 
     def solve(self, goal: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, bool]:
-        """Joints (6,) in range for the pose ``goal`` (4, 4, frame 0) from joints ``current``,
+        """Joints (J,) in range for the pose ``goal`` (4, 4, frame 0) from joints ``current``,
         and whether they reach it."""
         raise NotImplementedError
 
 
 class PoseIK(_PoseFloor):
-    """Exact pose IK from the sensed object pose, the branch nearest the current joints
-    among those inside the command box (module docstring). ``last_reachable``: some branch had
-    every joint in range and in the box."""
+    """Exact pose IK from the sensed object pose inside the command box (module docstring).
+    ``last_reachable``: the arm's pose IK reached the pose within the box (the PUMA: some branch
+    had every joint in range and in the box)."""
 
     def solve(self, goal: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, bool]:
-        thetas, valid = pose_ik_all(goal)  # (8, 6), (8,)
-        valid &= np.all((thetas >= self.lower) & (thetas <= self.upper), axis=-1)
-        distance = np.linalg.norm(thetas - current, axis=-1)
-        candidates = np.flatnonzero(valid) if valid.any() else np.arange(len(thetas))
-        best = candidates[np.argmin(distance[candidates])]
-        return thetas[best], bool(valid.any())
+        return self.task.pose_ik(goal, current, self.lower, self.upper)
 
 
 class PoseJacobianIK(_PoseFloor):
@@ -138,8 +143,9 @@ class PoseJacobianIK(_PoseFloor):
         max_step: float = MAX_STEP,
         lower: np.ndarray | None = None,
         upper: np.ndarray | None = None,
+        task: GraspTask | None = None,
     ) -> None:
-        super().__init__(triangulate, base, start, lower, upper)
+        super().__init__(triangulate, base, start, lower, upper, task)
         if not (damping > 0 and tolerance > 0 and max_iterations >= 1 and max_step > 0):
             raise ValueError(
                 "damping, tolerance, max_step must be > 0 and max_iterations >= 1; got "
@@ -150,8 +156,9 @@ class PoseJacobianIK(_PoseFloor):
         self.last_iterations = 0
 
     def pose_error(self, goal: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """(Δp, Δφ) (6,): position (m) and rotation vector (rad) from frame 6 at θ to goal."""
-        T = frames(theta)[6]
+        """(Δp, Δφ) (6,): position (m) and rotation vector (rad) from the tool frame at θ to
+        goal."""
+        T = self.task.forward(theta)
         return np.concatenate([goal[:3, 3] - T[:3, 3], orientation_error(goal[:3, :3], T[:3, :3])])
 
     def solve(self, goal: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -160,7 +167,7 @@ class PoseJacobianIK(_PoseFloor):
         damping2 = self.damping**2 * np.eye(6)
         iterations = 0
         while np.linalg.norm(error) >= self.tolerance and iterations < self.max_iterations:
-            J = jacobian(theta)  # (6, 6)
+            J = self.task.jacobian(theta)  # (6, J)
             step = J.T @ np.linalg.solve(J @ J.T + damping2, error)
             step *= min(1.0, self.max_step / max(float(np.linalg.norm(step)), 1e-300))
             theta = np.clip(theta + step, self.lower, self.upper)

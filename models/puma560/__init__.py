@@ -1,7 +1,8 @@
-"""PUMA 560: DH kinematics (Brause Fig. 2b), the reach-target workspace and the robot's
-:class:`~models.robot_model.RobotModel`."""
+"""PUMA 560: DH kinematics (Brause Fig. 2b), the reach-target workspace, the pose task and the
+robot's :class:`~models.robot_model.RobotModel`."""
 
 from models.puma560.arm import accuracy_chain, tool, wrist
+from models.puma560.grasp import grasp_task
 from models.puma560.kinematics import ARM_REACH, DH, HOME, frames, wrist_center, wrist_ik
 from models.puma560.workspace import (
     BASE_POS,
@@ -18,6 +19,7 @@ MODEL = RobotModel(
     workspace=WORKSPACE,
     arms={3: wrist, 6: tool},
     chain=accuracy_chain,
+    grasp=grasp_task(),
 )
 
 __all__ = [

@@ -1,10 +1,9 @@
 """The PUMA 560's grasp task: where the hand must be, and how its pose is seen.
 
 The target object and the hand carry the same frame of three coloured marker spheres, at
-:data:`MARKER_OFFSETS` in their own frames (the hand's frame is DH frame 6, the tool point
-``tcp``). The hand grasps the object when the two frames coincide, and then the two marker
-frames coincide too: so the goal a camera sees (the object's markers) and what the hand achieves
-(its own markers) are directly comparable pixel vectors, and goal relabelling works unchanged.
+:data:`~models.marker_frame.MARKER_OFFSETS` in their own frames (:mod:`models.marker_frame`, the
+same on every arm; the PUMA's hand frame is DH frame 6, the tool point ``tcp``). The hand grasps
+the object when the two frames coincide.
 
 Where the markers sit. The cameras look at the workspace from the front (world +y) and above;
 at :data:`NOMINAL_ORIENTATION` the tool's x axis points along their line of sight, its y axis
@@ -20,10 +19,6 @@ marker is at least 5 px inside both images in 99.75 % of poses (the rest are pos
 bottom or the sides of the box, where the blue marker or one end of the crossbar nears the
 border).
 
-A pose is found back from three sensed marker points by the least-squares rigid fit of the
-known offsets (Kabsch), so that an error in one marker spreads over the fit instead of tilting
-one axis.
-
 All positions are in metres; the world frame is DH frame 0 shifted by
 :data:`~models.puma560.BASE_POS` (same axes).
 """
@@ -36,23 +31,21 @@ from functools import lru_cache
 
 import numpy as np
 
-from models.puma560.inverse import pose_ik
-from models.puma560.kinematics import frames
+from models.grasp_task import GraspTask
+from models.marker_frame import HAND_COLOURS as HAND_COLOURS  # the marker frame, read here too
+from models.marker_frame import MARKER_COLOURS as MARKER_COLOURS
+from models.marker_frame import MARKER_OFFSETS as MARKER_OFFSETS
+from models.marker_frame import marker_points as marker_points
+from models.marker_frame import orientation_angle as orientation_angle
+from models.marker_frame import pose_from_points as pose_from_points
+from models.puma560.inverse import pose_ik, pose_ik_all
+from models.puma560.kinematics import DH, frames, jacobian
+from models.puma560.workspace import BASE_POS
 from models.rotations import homogeneous, rotvec_to_matrix
 from models.workspace import BoxWorkspace
 
 #: The taught keyframe ``ready`` (rad), the one pose a learner is given.
 READY = np.array([-1.2963, -2.2265, -0.2073, 0.0, -0.818, 0.2745])
-#: Marker centres (3, 3) in the hand's (and the object's) own frame, m: one row per marker, in
-#: the order of :data:`MARKER_COLOURS`. Red and green at the ends of a crossbar along tool y,
-#: blue below the fingers on the tool axis (see the module docstring for why).
-MARKER_OFFSETS = np.array([[0.0, 0.08, 0.02], [0.0, -0.08, 0.02], [0.0, 0.0, 0.14]])
-#: The object's markers' colours, in the order of :data:`MARKER_OFFSETS` (the scene's geoms
-#: ``object_marker_<colour>``) ...
-MARKER_COLOURS = ("red", "green", "blue")
-#: ... and the hand's, pair by pair (geoms ``hand_marker_<colour>``): colours of their own, as
-#: the cameras see both frames in the same images.
-HAND_COLOURS = ("yellow", "cyan", "magenta")
 #: The hand's orientation at ``ready`` (world axes): the centre of the narrow range.
 NOMINAL_ORIENTATION = frames(READY)[6, :3, :3]
 #: Largest angle of the narrow range (the first releases' only one) from
@@ -177,48 +170,6 @@ WIDE = OrientationRange()
 NARROW = OrientationRange.ball(MAX_TILT)
 
 
-def marker_points(pose: np.ndarray) -> np.ndarray:
-    """World centres (..., 3, 3) of the three markers of frames at ``pose`` (..., 4, 4)."""
-    pose = np.asarray(pose, dtype=float)
-    return pose[..., None, :3, 3] + MARKER_OFFSETS @ np.swapaxes(pose[..., :3, :3], -1, -2)
-
-
-def pose_from_points(points: np.ndarray) -> np.ndarray:
-    """The pose (..., 4, 4) whose markers best fit ``points`` (..., 3, 3) (Kabsch).
-
-    Exact for noise-free points; NaN where a point is NaN.
-    """
-    points = np.asarray(points, dtype=float)
-    model_centre = MARKER_OFFSETS.mean(axis=0)
-    centre = points.mean(axis=-2)
-    P = MARKER_OFFSETS - model_centre  # (3, 3) model, rows
-    Q = points - centre[..., None, :]  # (..., 3, 3) seen, rows
-    H = np.swapaxes(P, -1, -2) @ Q  # (..., 3, 3) = Σ p qᵀ
-    bad = ~np.isfinite(H).all(axis=(-2, -1))
-    H = np.where(bad[..., None, None], np.eye(3), H)
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(np.swapaxes(Vt, -1, -2) @ np.swapaxes(U, -1, -2)))
-    D = np.zeros((*d.shape, 3, 3))
-    D[..., 0, 0] = D[..., 1, 1] = 1.0
-    D[..., 2, 2] = d
-    R = np.swapaxes(Vt, -1, -2) @ D @ np.swapaxes(U, -1, -2)
-    position = centre - model_centre @ np.swapaxes(R, -1, -2)
-    pose = homogeneous(R, position)
-    pose[bad] = np.nan
-    return pose
-
-
-def orientation_angle(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
-    """The angle (rad, in [0, π]) of the rotation between orientations (..., 3, 3)."""
-    R = np.swapaxes(np.asarray(R_a), -1, -2) @ np.asarray(R_b)
-    cos = (np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0
-    # atan2 of |sin| and cos: accurate near 0, where arccos loses half the digits.
-    w = np.stack(
-        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], -1
-    )
-    return np.arctan2(np.linalg.norm(w, axis=-1) / 2.0, cos)
-
-
 def grasp_joints(T06: np.ndarray, orientations: OrientationRange) -> np.ndarray | None:
     """The joints (6,) that put frame 6 at ``T06`` (frame 0) in a branch the range allows, or
     None when no such branch has every joint in range.
@@ -288,3 +239,36 @@ def task_joint_box(orientations: OrientationRange) -> tuple[np.ndarray, np.ndarr
     (docs/envs/PumaGrasp-v0.md). Computed once per range and process."""
     low, high = _joint_box(orientations)
     return np.array(low), np.array(high)
+
+
+def nearest_pose_ik(
+    goal: np.ndarray, current: np.ndarray, lower: np.ndarray, upper: np.ndarray
+) -> tuple[np.ndarray, bool]:
+    """The closed-form joints (6,) for the pose ``goal`` (4, 4, frame 0): of the eight branches
+    (:func:`~models.puma560.inverse.pose_ik_all`) with every joint in [lower, upper], the one
+    nearest ``current`` (6,); of all eight if none is, and then False."""
+    thetas, valid = pose_ik_all(goal)  # (8, 6), (8,)
+    valid &= np.all((thetas >= lower) & (thetas <= upper), axis=-1)
+    distance = np.linalg.norm(thetas - current, axis=-1)
+    candidates = np.flatnonzero(valid) if valid.any() else np.arange(len(thetas))
+    best = candidates[np.argmin(distance[candidates])]
+    return thetas[best], bool(valid.any())
+
+
+def grasp_task() -> GraspTask:
+    """The PUMA's :class:`~models.grasp_task.GraspTask`: frame 6 (site ``tcp``), the closed-form
+    pose IK, objects of :func:`sample_grasp_pose` in the orientation ranges (default
+    :data:`WIDE`), the joint box :func:`task_joint_box`."""
+    return GraspTask(
+        lower=DH.lower.copy(),
+        upper=DH.upper.copy(),
+        ready=READY.copy(),
+        base=BASE_POS.copy(),
+        forward=lambda theta: frames(theta)[6],
+        jacobian=jacobian,
+        pose_ik=nearest_pose_ik,
+        sample=sample_grasp_pose,
+        joint_box=task_joint_box,
+        default_orientations=WIDE,
+        parse_orientations=OrientationRange.parse,
+    )
