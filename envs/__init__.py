@@ -2,7 +2,7 @@
 
 Importing this package chooses the off-screen GL back-end (before mujoco is imported) and
 registers ``RiacsReach-v0``, ``PumaReach-v0``, ``PumaGrasp-v0``, ``PumaTrack-v0``, the generated
-arms' envs (``Ur5eReach-v0``, ``Ur5eGrasp-v0``, ``PandaReach-v0``) and
+arms' envs (``Ur5eReach-v0``, ``Ur5eGrasp-v0``, ``PandaReach-v0``, ``PandaGrasp-v0``) and
 ``ArmReach-v0`` (a user's MJCF, :mod:`envs.arm_reach`) with
 Gymnasium: every robot's reach env and grasp env from the registry (:data:`envs.robots.ROBOTS`,
 :func:`register_robot`), and the PUMA's path-tracking env. ``gym.make`` returns the reach and
