@@ -154,6 +154,9 @@ class RobotSpec:
             media, sensing accuracy, adaptation, the RL comparison, the env benchmark) run this
             one too; the arms generated from DH tables are left out of them (``--env`` and the
             sweep grid take them).
+        swivel_joints: for a redundant arm, the joints whose frame origins (DH chain) are its
+            shoulder, elbow and wrist: the redundancy study's swivel angle
+            (:mod:`envs.studies.redundancy`); None where it is not measured.
     """
 
     model: str
@@ -171,6 +174,7 @@ class RobotSpec:
     reach: float = None  # type: ignore[assignment]  # the model's unless given
     workspace: Workspace = None  # type: ignore[assignment]  # the model's unless given
     default_runs: bool = True
+    swivel_joints: tuple[int, int, int] | None = None
     #: The robot's model, read once from its folder's package.
     kinematics: RobotModel = field(init=False, repr=False, compare=False)
 
@@ -298,6 +302,7 @@ ROBOTS: dict[str, RobotSpec] = {
         grasp_env="PandaGrasp-v0",
         grasp_short="panda_grasp",
         default_runs=False,
+        swivel_joints=(2, 4, 6),  # shoulder, elbow, wrist: envs/studies/redundancy.py
     ),
 }
 

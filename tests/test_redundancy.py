@@ -120,7 +120,7 @@ def test_shoulder_elbow_and_wrist_are_where_mujoco_puts_the_bodies_and_on_their_
 
 
 def test_a_robot_without_swivel_points_is_refused_naming_what_to_add():
-    with pytest.raises(RedundancyError, match="SWIVEL_JOINTS"):
+    with pytest.raises(RedundancyError, match="swivel_joints"):
         dh_arm_of("ur5e")
 
 

@@ -8,11 +8,12 @@ about S→W; ψ = 0 puts the elbow above the line in the vertical plane. Rotatin
 shoulder-to-wrist part about S→W (joints 1-3 with the elbow joint fixed) changes ψ by the angle
 turned and moves neither S nor W.
 
-The points are origins of joint frames of the robot's DH chain (:func:`models.dh_arm.joint_frames`,
-listed in :data:`SWIVEL_JOINTS`); on the Franka-Panda-type chain (Craig's modified convention,
-``models/panda/dh.toml``): S is the origin of joint 2's frame (axes 1, 2 and 3 meet there), E
-that of joint 4's (on the elbow axis, 0.0825 m off the upper arm's axis), W that of joint 6's
-(axes 5 and 6 meet there; it is also joint 5's origin, and joint 7's axis passes 0.088 m off).
+The points are origins of joint frames of the robot's DH chain (:func:`models.dh_arm.joint_frames`;
+the joints are the registry entry's ``swivel_joints``, :class:`envs.robots.RobotSpec`). On the
+Franka-Panda-type chain (Craig's modified convention, ``models/panda/dh.toml``): S is the
+origin of joint 2's frame (axes 1, 2 and 3 meet there), E that of joint 4's (on the elbow axis,
+0.0825 m off the upper arm's axis), W that of joint 6's (axes 5 and 6 meet there; it is also
+joint 5's origin, and joint 7's axis passes 0.088 m off).
 In the generated MJCF those are the origins of the bodies ``link2``, ``link4`` and ``link6``.
 The map never sees these kinematics; only this evaluation does.
 
@@ -35,13 +36,11 @@ from envs.harness.checkpoint import checkpoint_path
 from envs.harness.evaluation import Evaluation, Wrapped, evaluate
 from envs.harness.streams import seed_env
 from envs.harness.training import Trainer
-from envs.robots import robot_of_env
+from envs.robots import ROBOTS, robot_of_env
 from learners.base import Controller
 from learners.som.controller import VisuomotorSOM
 from models.dh_arm import DHArm, joint_frames, tcp_position
 
-#: Per robot: the joints whose frame origins are the shoulder, the elbow and the wrist.
-SWIVEL_JOINTS: dict[str, tuple[int, int, int]] = {"panda": (2, 4, 6)}
 #: The direction the swivel angle's reference plane contains besides S→W (world, up).
 VERTICAL = (0.0, 0.0, 1.0)
 #: The high percentile of the neighbour jumps reported beside the largest and the median.
@@ -72,15 +71,27 @@ def swivel_angle(
     return np.arctan2(np.sum(axis * np.cross(ref, elb), axis=-1), np.sum(ref * elb, axis=-1))
 
 
+def swivel_robots() -> list[str]:
+    """The registry's robots that name their shoulder, elbow and wrist joints."""
+    return [name for name, spec in ROBOTS.items() if spec.swivel_joints is not None]
+
+
+def swivel_joints(robot: str) -> tuple[int, int, int]:
+    """The joints whose frame origins are ``robot``'s shoulder, elbow and wrist."""
+    joints = ROBOTS[robot].swivel_joints
+    assert joints is not None, robot  # dh_arm_of refused the robot
+    return joints
+
+
 def dh_arm_of(robot: str) -> DHArm:
     """The DH arm of a robot generated from its table (``models/<robot>/``'s ``TABLE``), with
-    its shoulder, elbow and wrist in :data:`SWIVEL_JOINTS`; RedundancyError naming what to
+    its shoulder, elbow and wrist in its registry entry; RedundancyError naming what to
     add else."""
-    if robot not in SWIVEL_JOINTS:
+    if robot not in ROBOTS or ROBOTS[robot].swivel_joints is None:
         raise RedundancyError(
-            f"no swivel angle for robot {robot!r}: it is defined for {', '.join(SWIVEL_JOINTS)}; "
-            "add the robot's shoulder, elbow and wrist joints to SWIVEL_JOINTS in "
-            "envs/studies/redundancy.py"
+            f"no swivel angle for robot {robot!r}: it is defined for {', '.join(swivel_robots())}; "
+            "give the robot's shoulder, elbow and wrist joints as swivel_joints in its RobotSpec "
+            "(envs/robots.py)"
         )
     return importlib.import_module(f"models.{robot}").TABLE
 
@@ -88,7 +99,7 @@ def dh_arm_of(robot: str) -> DHArm:
 def arm_points(arm: DHArm, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Shoulder, elbow and wrist (..., 3), world m, of all joint angles θ (..., n), rad."""
     axes = joint_frames(arm, theta)[0]  # (..., n, 4, 4)
-    s, e, w = SWIVEL_JOINTS[arm.name]
+    s, e, w = swivel_joints(arm.name)
     return axes[..., s - 1, :3, 3], axes[..., e - 1, :3, 3], axes[..., w - 1, :3, 3]
 
 
