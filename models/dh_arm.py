@@ -20,6 +20,7 @@ import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -383,12 +384,19 @@ def arm_kinematics(arm: DHArm, joints: int) -> ArmKinematics:
                          jacobian, inverse)  # fmt: skip
 
 
+def configured_kinematics(arm: DHArm, joints: int, configuration: Any) -> ArmKinematics:
+    """:func:`arm_kinematics` as a :class:`RobotModel`'s ``arms`` entry (a DH arm has one
+    configuration)."""
+    return arm_kinematics(arm, joints)
+
+
 def dh_robot_model(arm: DHArm) -> RobotModel:
     """The arm's :class:`RobotModel`: reach, the workspace box, the tcp kinematics for each
     number of controlled joints it offers, and the pose task if the table has ``[grasp]``."""
     from models.dh_grasp import grasp_task  # it builds on this module's kinematics
 
-    arms = {j: (lambda configuration, j=j: arm_kinematics(arm, j)) for j in arm.controlled}
+    # partials of module functions, not lambdas: envs pickle (AsyncVectorEnv)
+    arms = {j: partial(configured_kinematics, arm, j) for j in arm.controlled}
     workspace = BoxWorkspace(arm.workspace_lower.copy(), arm.workspace_upper.copy())
     grasp = None if arm.grasp_box is None else grasp_task(arm)
     return RobotModel(name=arm.name, reach=reach(arm), workspace=workspace, arms=arms,

@@ -14,6 +14,7 @@ Frame 0 has the world's axes (the DH base transform is a lift by ``base_height``
 
 from __future__ import annotations
 
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -55,36 +56,53 @@ def task_joint_box(arm: DHArm, ready: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return lower, upper
 
 
+def pose_ik(
+    arm: DHArm, goal: np.ndarray, current: np.ndarray, low: np.ndarray, high: np.ndarray
+) -> tuple[np.ndarray, bool]:
+    """Joints (n,) rad that put the tool frame at ``goal`` (4, 4), from ``current`` (n,), within
+    [low, high], and whether they reach it (:func:`models.numeric_ik.solve_poses`)."""
+    theta, reached = solve_poses(
+        partial(tool_poses, arm), partial(tool_jacobian, arm), goal[None], current[None], low, high
+    )
+    return theta[0], bool(reached[0])
+
+
+def sample_pose(
+    arm: DHArm,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    rng: np.random.Generator,
+    box: BoxWorkspace,
+    where: np.ndarray,
+    _: Any,
+) -> tuple[np.ndarray, np.ndarray]:
+    """An object's pose (4, 4): the tool frame at joints drawn from [lower, upper] (returned
+    too, (n,) rad), moved by ``where`` (3,) m."""
+    theta = rng.uniform(lower, upper)  # (n,)
+    pose = tool_poses(arm, theta)
+    pose[:3, 3] += where
+    return pose, theta
+
+
+def fixed_box(lower: np.ndarray, upper: np.ndarray, _: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The joint box [lower, upper] whatever the objects' orientations."""
+    return lower.copy(), upper.copy()
+
+
 def grasp_task(arm: DHArm) -> GraspTask:
     """The arm's :class:`~models.grasp_task.GraspTask` (module docstring); ValueError if its
-    table has no ``[grasp]`` section."""
+    table has no ``[grasp]`` section. Its functions are partials of module functions, so that
+    envs pickle (``AsyncVectorEnv``)."""
     ready = grasp_ready(arm)
     lower, upper = task_joint_box(arm, ready)
-    base = base_transform(arm)[:3, 3].copy()
-
-    def pose_ik(goal: np.ndarray, current: np.ndarray, low: np.ndarray, high: np.ndarray
-                ) -> tuple[np.ndarray, bool]:  # fmt: skip
-        theta, reached = solve_poses(
-            lambda q: tool_poses(arm, q), lambda q: tool_jacobian(arm, q),
-            goal[None], current[None], low, high,
-        )  # fmt: skip
-        return theta[0], bool(reached[0])
-
-    def sample(rng: np.random.Generator, box: BoxWorkspace, where: np.ndarray, _: Any
-               ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-        theta = rng.uniform(lower, upper)  # (n,)
-        pose = tool_poses(arm, theta)
-        pose[:3, 3] += where
-        return pose, theta
-
     return GraspTask(
         lower=arm.lower.copy(),
         upper=arm.upper.copy(),
         ready=ready,
-        base=base,
-        forward=lambda theta: tool_poses(arm, theta),
-        jacobian=lambda theta: tool_jacobian(arm, theta),
-        pose_ik=pose_ik,
-        sample=sample,
-        joint_box=lambda _: (lower.copy(), upper.copy()),
+        base=base_transform(arm)[:3, 3].copy(),
+        forward=partial(tool_poses, arm),
+        jacobian=partial(tool_jacobian, arm),
+        pose_ik=partial(pose_ik, arm),
+        sample=partial(sample_pose, arm, lower, upper),
+        joint_box=partial(fixed_box, lower, upper),
     )

@@ -26,6 +26,7 @@ from gymnasium.utils.env_checker import check_env
 import envs  # noqa: F401  (chooses the GL back-end, registers the envs)
 from envs import reach
 from envs.reach import ReachEnv
+from envs.robots import grasp_env_ids, reach_env_ids
 from models import puma560, riacs
 from models.workspace import BoxWorkspace
 
@@ -661,6 +662,19 @@ def test_fork_after_rendering_fails_fast_or_works(tmp_path):
     """Never a hang: either it works, or the worker says which start method to use."""
     returncode, output = _run_fork_script(tmp_path, "render-first")
     assert returncode == 0 or "forkserver" in output, output[-2000:]
+
+
+@pytest.mark.parametrize("env_id", [*reach_env_ids(), *grasp_env_ids()])
+def test_every_registered_env_pickles_with_its_robot_model(env_id):
+    """What ``AsyncVectorEnv`` does to an env made by ``gym.make``: the copy, robot model and
+    pose task included (no lambdas in them), steps as the original does."""
+    env = gym.make(env_id, sensing="project", control="kinematic")
+    env.reset(seed=5)
+    copy = pickle.loads(pickle.dumps(env))
+    command = env.action_space.sample()
+    _assert_same(env.step(command), copy.step(command), "step")
+    env.close()
+    copy.close()
 
 
 @pytest.mark.parametrize("robot", ROBOTS)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -23,7 +23,7 @@ from envs.sensing.viewports import View
 from models.dh_mjcf import frame_pair
 
 if TYPE_CHECKING:
-    from envs.scene import ArmScene
+    import mujoco  # imported at run time only where used: envs picks the GL back-end first
 
 #: The image observations' cameras, left and right as seen from the cameras.
 PIXEL_CAMERAS = ("pix_left", "pix_right")
@@ -36,6 +36,21 @@ PIXEL_MARGIN = 0.1
 SPHERE_PX = 2.0
 #: rad: the pair looks down at least this steeply, so that the floor fills the background.
 MIN_ELEVATION = math.radians(40.0)
+
+
+class ArmScene(Protocol):
+    """What the pixel cameras read of an arm's scene (:class:`envs.scene.ArmScene` has it)."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    joint_lower: np.ndarray
+    joint_upper: np.ndarray
+    stereo: CameraPair
+    spec_robot: Any  # envs.robots.RobotSpec: its workspace
+
+    def set_joints(self, q: np.ndarray, data: mujoco.MjData | None = None) -> None: ...
+
+    def sensed_point(self, data: mujoco.MjData | None = None) -> np.ndarray: ...
 
 
 def random_joints(scene: ArmScene, rng: np.random.Generator, n: int) -> np.ndarray:

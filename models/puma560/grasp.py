@@ -255,6 +255,11 @@ def nearest_pose_ik(
     return thetas[best], bool(valid.any())
 
 
+def tcp_frame(theta: np.ndarray) -> np.ndarray:
+    """Frame 6 (site ``tcp``) in the base frame, (..., 4, 4), of joint angles (..., 6) rad."""
+    return frames(theta)[6]
+
+
 def grasp_task() -> GraspTask:
     """The PUMA's :class:`~models.grasp_task.GraspTask`: frame 6 (site ``tcp``), the closed-form
     pose IK, objects of :func:`sample_grasp_pose` in the orientation ranges (default
@@ -264,7 +269,7 @@ def grasp_task() -> GraspTask:
         upper=DH.upper.copy(),
         ready=READY.copy(),
         base=BASE_POS.copy(),
-        forward=lambda theta: frames(theta)[6],
+        forward=tcp_frame,  # a module function: envs pickle (AsyncVectorEnv)
         jacobian=jacobian,
         pose_ik=nearest_pose_ik,
         sample=sample_grasp_pose,
