@@ -63,7 +63,10 @@ FLAGS = {
 }  # fmt: skip
 
 #: Every registered reach and grasp env.
-ENV_CHOICES = {"RiacsReach-v0", "PumaReach-v0", "Ur5eReach-v0", "PandaReach-v0", "PumaGrasp-v0"}
+ENV_CHOICES = {
+    "RiacsReach-v0", "PumaReach-v0", "Ur5eReach-v0", "PandaReach-v0",
+    "PumaGrasp-v0", "Ur5eGrasp-v0", "PandaGrasp-v0",
+}  # fmt: skip
 #: (program, flag): (default, choices) as they were, for the shared options that vary most.
 SHARED = {
     ("train", "--sensing"): ("project", {"render", "project", "foveated"}),

@@ -16,7 +16,7 @@ from envs.composite import CompositeView
 from envs.harness.film import HOLD_SECONDS, INTERPOLATION_SECONDS, TrialFilm, side_by_side
 from envs.harness.trials import run_trial
 from envs.reach import ReachEnv
-from envs.viewer import frame_scene
+from envs.viewer import frame_points, frame_scene
 
 PANEL = (160, 120)  # small panels: the tests count frames, they do not look at them
 
@@ -135,7 +135,7 @@ def test_viewer_camera_frames_the_arm_and_the_workspace(robot):
     vertical field of view and a 4:3 horizontal one, seen from MuJoCo's free-camera pose."""
     env = ReachEnv(robot=robot, sensing="project", control="kinematic")
     camera = mujoco.MjvCamera()
-    frame_scene(camera, env.model)
+    frame_scene(camera, env.model, frame_points(env.model, env.data, env.spec_robot.workspace))
     az, el = np.deg2rad(camera.azimuth), np.deg2rad(camera.elevation)
     forward = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
     eye = camera.lookat - camera.distance * forward
