@@ -55,6 +55,21 @@ RESET_OPTIONS = {
 OUT_OF_VIEW_PX = 4.0
 
 
+def moving_numpy(qvel: np.ndarray) -> bool:
+    """Whether some joint is at least SETTLE_SPEED fast: ``max |qvel| >= SETTLE_SPEED`` (rad/s),
+    False when a speed is NaN. The reference of :func:`moving`."""
+    return bool(np.max(np.abs(qvel)) >= SETTLE_SPEED)
+
+
+def moving(qvel: np.ndarray) -> bool:
+    """:func:`moving_numpy` on the speeds as Python floats (a servo move tests it after every
+    physics step; two numpy reductions of a few numbers cost more than the step)."""
+    speeds = qvel.tolist()
+    if max(speeds) >= SETTLE_SPEED or min(speeds) <= -SETTLE_SPEED:
+        return not any(map(math.isnan, speeds))  # a NaN makes numpy's maximum NaN
+    return False
+
+
 class ReachEnv(ArmScene):
     """Reach a target with a robot arm, seen only through two cameras.
 
@@ -285,6 +300,9 @@ class ReachEnv(ArmScene):
         #: Called with the simulated seconds since the move began after every physics step of a
         #: servo move (videos sample the motion with it); it may read ``data``, never write it.
         self.on_physics_step: Callable[[float], None] | None = None
+        #: The settle test of a servo move, after every physics step (:func:`moving`, or its
+        #: reference :func:`moving_numpy`: the same moves).
+        self.moving: Callable[[np.ndarray], bool] = moving
         self._cameras_read: tuple | None = None  # the rig's cameras when last converted ...
         self._goal_points: GoalPoints | None = None  # ... to floats for the reward
         centre = np.tile([(width - 1) / 2, (height - 1) / 2], self.goal_size // 2)
@@ -587,17 +605,21 @@ class ReachEnv(ArmScene):
         start = self.data.time
         slow_since = None  # s, when every joint last became slower than SETTLE_SPEED
         on_step = self.on_physics_step
+        moving, qvel = self.moving, self.data.qvel  # qvel: a view, updated by every step
+        steps = 0
         while True:
             mujoco.mj_step(self.model, self.data)
+            steps += 1
             elapsed = self.data.time - start
             if on_step is not None:
                 on_step(elapsed)
-            if np.max(np.abs(self.data.qvel)) >= SETTLE_SPEED:
+            if moving(qvel):
                 slow_since = None
             elif slow_since is None:
                 slow_since = elapsed
             settled = slow_since is not None and elapsed - slow_since >= SETTLE_WINDOW
             if (elapsed >= MIN_SETTLE_TIME and settled) or elapsed >= MAX_SETTLE_TIME:
+                self.physics_steps += steps
                 return float(elapsed)
 
     def _sense_target(self) -> None:

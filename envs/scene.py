@@ -11,6 +11,7 @@ reaching into an env's private attributes.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import dataclass, fields
 
 import gymnasium as gym
 import mujoco
@@ -29,6 +30,20 @@ HIDDEN_GROUP = 5
 #: The state a reset restores: what ``mj_step`` reads (time, positions, velocities, controls,
 #: mocap poses, warm start, ...), MuJoCo's documented integration state.
 INTEGRATION_STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+@dataclass(frozen=True)
+class WorkCounts:
+    """What a scene has done since it was made (:meth:`ArmScene.work_counts`); the difference
+    of two counts is what was done between them."""
+
+    renders: int  # the sensing cameras' renderings, one read-back each
+    views: int  # camera views (whole images or windows) drawn in them
+    physics_steps: int  # mj_step calls of servo moves
+    fallbacks: int  # foveated sensing calls that rendered the whole images
+
+    def __sub__(self, other: WorkCounts) -> WorkCounts:
+        return WorkCounts(*(getattr(self, f.name) - getattr(other, f.name) for f in fields(self)))
 
 
 class ArmScene(gym.Env):
@@ -86,6 +101,7 @@ class ArmScene(gym.Env):
         self.stereo = StereoRig(self.model, self.data, height, width)
         self._fovea: FoveatedSensing | None = None
         self._was_reset = False  # step() needs an episode: reset() first
+        self.physics_steps = 0  # mj_step calls of the moves (the environments count them)
 
     # -- episodes ------------------------------------------------------------------------------
 
@@ -181,6 +197,13 @@ class ArmScene(gym.Env):
         if self._fovea is None:
             self._fovea = FoveatedSensing(self.stereo)
         return self._fovea
+
+    def work_counts(self) -> WorkCounts:
+        """The sensing renderings, the views drawn in them, the physics steps and the foveated
+        fallbacks so far (counters kept as the work is done; reading them costs nothing)."""
+        renders, views = self.stereo.renders
+        fallbacks = 0 if self._fovea is None else self._fovea.fallbacks
+        return WorkCounts(renders, views, self.physics_steps, fallbacks)
 
     def close(self) -> None:
         self.stereo.close()

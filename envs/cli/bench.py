@@ -4,6 +4,7 @@
     .venv/bin/python scripts/bench.py som       # SOM trials/s vs MiniSom's winner + update
     .venv/bin/python scripts/bench.py ik        # AnalyticIK / JacobianIK / SOM act_batch
     .venv/bin/python scripts/bench.py natenet   # NATEnet query vs exact inverse Jacobian
+    .venv/bin/python scripts/bench.py trials    # a realistic training trial's renders, steps, ms
     .venv/bin/python scripts/bench.py all       # each of them with its own defaults
 
 Options after the name go to that benchmark (see e.g. ``bench.py som --help``); ``all`` takes
@@ -17,7 +18,7 @@ import importlib
 
 from envs.cli import common as cli
 
-BENCHMARKS = ("envs", "som", "ik", "natenet")
+BENCHMARKS = ("envs", "som", "ik", "natenet", "trials")
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -612,13 +612,14 @@ class Trainer:
             raise
         self.save()
 
-    def train_one(self) -> None:
-        """One trial in this process's env, learned at once."""
+    def train_one(self) -> Trial:
+        """One trial in this process's env, learned at once; returns it."""
         pairs = self.config.training_pairs or 1  # the reach runs: one pair
         trial = run_trial(
             self.env, self.som, fine_moves=pairs, keep_arm=self.config.keep_arm, explore=True
         )
         self._learn(trial, pairs)
+        return trial
 
     def train_round(self, check: Callable[[], None] = lambda: None) -> None:
         """One round (``envs.harness.workers.round_end``): its trials collected by the

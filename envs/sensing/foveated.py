@@ -53,6 +53,10 @@ FALLBACK_MAJOR = 0.05
 HIDDEN_DEPTH_SHARE = 0.01
 #: ... with the image's bounding box this far (base px) inside the window's border.
 HIDDEN_BORDER_PX = 1.0
+#: A sphere whose image lies this far (base px) beyond every camera's window, or farther,
+#: cannot draw a pixel in them (room for rasterisation; the image's extent is bounded
+#: generously, :meth:`FoveatedSensing.can_show`).
+BLIND_MARGIN_PX = 2.0
 
 
 class FoveatedSensing:
@@ -61,15 +65,25 @@ class FoveatedSensing:
     Args:
         stereo: the rig (its image size is the base image).
         density: window pixels per base pixel; margin: see FOVEA_MARGIN_PX.
+        skip_blind: given where the spheres are (``centres`` of :meth:`sense_many`), do not
+            render windows that cannot show them (:meth:`can_show`): the whole images are
+            rendered at once, as after windows that showed nothing, with the same sightings.
+            False renders every window (the reference).
     """
 
     def __init__(
-        self, stereo: StereoRig, density: float = FOVEA_DENSITY, margin: float = FOVEA_MARGIN_PX
+        self,
+        stereo: StereoRig,
+        density: float = FOVEA_DENSITY,
+        margin: float = FOVEA_MARGIN_PX,
+        skip_blind: bool = True,
     ) -> None:
         if not density >= 1.0:
             raise ValueError(f"density is window pixels per base pixel, >= 1, got {density!r}")
         self.stereo, self.density, self.margin = stereo, float(density), float(margin)
+        self.skip_blind = skip_blind
         self.fallbacks = 0  # calls that had to render the whole images
+        self.skipped = 0  # windows not rendered: they could not show the sphere
 
     def windows(self, expected: np.ndarray, radius: float) -> list[Window]:
         """One window per camera about the expected centre ``expected`` (4,) base px; a camera
@@ -124,19 +138,33 @@ class FoveatedSensing:
         return self.sense_many(data, (marker,), radius, expected)[0]
 
     def sense_many(
-        self, data: mujoco.MjData, markers, radius: float, expected: np.ndarray | None = None
+        self,
+        data: mujoco.MjData,
+        markers,
+        radius: float,
+        expected: np.ndarray | None = None,
+        centres: np.ndarray | None = None,
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """:meth:`sense` of several spheres of one ``radius`` drawn with the same geom groups
         (one task's target markers, or its arm's), ``expected`` (4M,) px or None: each in its
         own windows first; the whole images, where some are needed, rendered once for all the
         markers that need them. The same sightings as :meth:`sense` marker by marker, with
-        fewer renderings."""
+        fewer renderings.
+
+        ``centres`` (M, 3) m, where the spheres are (or None): with ``skip_blind``, windows
+        that cannot show a sphere (:meth:`can_show`) are not rendered; they would show none of
+        it, and the whole images would be rendered after them all the same."""
         found: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(markers)
         pending = []
         for k, marker in enumerate(markers):
             guess = None if expected is None else expected[4 * k : 4 * k + 4]
             if guess is not None and np.any(np.isfinite(guess)):
                 windows = self.windows(guess, radius)
+                if self.skip_blind and centres is not None:
+                    if not self.can_show(windows, centres[k], radius):
+                        self.skipped += 1
+                        pending.append(k)
+                        continue
                 seen = self.stereo.sense_sphere(data, marker, radius, windows)
                 if np.all(seen.visible | seen.framed | self.hidden(seen, windows, guess, radius)):
                     found[k] = (seen.pixels, seen.visible)
@@ -154,6 +182,28 @@ class FoveatedSensing:
                 if visible.sum() >= whole_visible.sum():
                     found[k] = (pixels, visible)
         return found  # type: ignore[return-value]
+
+    def can_show(self, windows: list[Window], centre: np.ndarray, radius: float) -> bool:
+        """Whether a sphere of ``radius`` (m) at ``centre`` (3,) m may draw a pixel in one of
+        the cameras' ``windows``. False only when, in both cameras, it lies in front of the
+        camera and a square about its centre's image, 2 semi-major axes of its image plus
+        BLIND_MARGIN_PX from it, misses the window: the image (an ellipse holding the centre's
+        image) is then wholly outside the window, and so is the sphere's drawn mesh (its
+        vertices lie on the sphere)."""
+        for camera, w in zip(self.stereo.cameras, windows, strict=True):
+            if (camera.position - centre) @ camera.rotation[:, 2] <= radius:
+                return True  # reaches the camera's plane: not decided here
+            uv = camera.project(centre[None])[0]  # (2,) px
+            reach = 2.0 * camera.sphere_semi_axes(centre[None], radius)[0, 0] + BLIND_MARGIN_PX
+            right, bottom = w.left + w.width / w.density, w.top + w.height / w.density
+            if (
+                uv[0] + reach >= w.left
+                and uv[0] - reach <= right
+                and uv[1] + reach >= w.top
+                and uv[1] - reach <= bottom
+            ):
+                return True
+        return False
 
     def hidden(
         self, seen: SphereSighting, windows: list[Window], expected: np.ndarray, radius: float

@@ -170,7 +170,8 @@ class FoveatedSensor(Sensor):
 
     Args:
         fovea: the scene's foveated sensing; markers: their colours; marker_radius,
-            target_radius: m.
+            target_radius: m; effector: MuJoCo ids (M,) of the arm's marker geoms (where they
+            are decides which windows can show them: :meth:`FoveatedSensing.sense_many`).
     """
 
     def __init__(
@@ -179,8 +180,9 @@ class FoveatedSensor(Sensor):
         markers: SensedMarkers,
         marker_radius: float,
         target_radius: float,
+        effector: np.ndarray,
     ) -> None:
-        self.fovea = fovea
+        self.fovea, self.effector = fovea, effector
         self.target_colours, self.effector_colours = (
             markers.target_colours,
             markers.effector_colours,
@@ -191,8 +193,11 @@ class FoveatedSensor(Sensor):
         return joined(self.fovea.sense_many(data, self.target_colours, self.target_radius))
 
     def sense_effector(self, data: mujoco.MjData, expected: np.ndarray) -> Sighting:
+        centres = data.geom_xpos[self.effector]  # (M, 3) m
         return joined(
-            self.fovea.sense_many(data, self.effector_colours, self.marker_radius, expected)
+            self.fovea.sense_many(
+                data, self.effector_colours, self.marker_radius, expected, centres
+            )
         )
 
 
@@ -207,5 +212,11 @@ def make_sensor(mode: str, scene: SensedScene) -> Sensor:
     if mode == "render":
         return RenderSensor(scene.stereo, scene.markers, scene.marker_radius, scene.target_radius)
     if mode == "foveated":
-        return FoveatedSensor(scene.fovea, scene.markers, scene.marker_radius, scene.target_radius)
+        return FoveatedSensor(
+            scene.fovea,
+            scene.markers,
+            scene.marker_radius,
+            scene.target_radius,
+            scene.effector_geom_ids,
+        )
     raise ValueError(f"unknown sensing {mode!r}; valid: {', '.join(SENSING_MODES)}")

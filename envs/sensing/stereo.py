@@ -231,6 +231,12 @@ class StereoRig(CameraPair):
             [PinholeCamera.from_model(self.model, data, c, h, w) for c in self.camera_names]
         )
 
+    @property
+    def renders(self) -> tuple[int, int]:
+        """How many renderings (read-backs) this rig has made, and how many camera views they
+        drew (whole images or windows)."""
+        return self._renderer.renders, self._renderer.views_drawn
+
     def views(self, windows: Sequence[Window] | None = None) -> list[View]:
         """One :class:`View` per camera: its whole image, or the given windows."""
         if windows is None:

@@ -134,6 +134,8 @@ class ViewportRenderer:
     freed by :meth:`close` or, when it is garbage-collected unclosed, by a finaliser; either way
     with its own context current and the previously current one restored after
     (:func:`envs.sensing.rendering.free_gl`), so other renderers of the process keep theirs.
+    ``renders`` counts its calls of :meth:`render` (one read-back each), ``views_drawn`` the
+    views they drew.
 
     Args:
         model: the MuJoCo model; its off-screen buffer is enlarged, if needed, to
@@ -175,6 +177,8 @@ class ViewportRenderer:
         self._options: dict = {}  # geom groups -> mujoco.MjvOption
         self._cameras: dict = {}  # camera name -> mujoco.MjvCamera (None: a free camera)
         self._geoms: dict = {}  # (groups, scene geoms) -> scene's model geoms, their ids
+        self.renders = 0  # calls of render: one read-back each
+        self.views_drawn = 0  # views drawn by them
 
     def _start(self) -> tuple[mujoco.MjrContext, mujoco.MjvScene]:
         """Make the GL context, the rendering context and the scene; returns the last two."""
@@ -291,6 +295,8 @@ class ViewportRenderer:
                 f"{self.max_width}x{self.max_height}; make it larger"
             )
         option = self._option(tuple(groups))
+        self.renders += 1
+        self.views_drawn += len(views)
         x = 0
         mujoco.mjv_updateScene(
             self.model, data, option, None, self._camera(views[0]),
