@@ -24,6 +24,7 @@ from envs.sensing.marker_detection import (
     pixel_moments,
 )
 from envs.sensing.marker_fit import CameraOutline, locate
+from envs.sensing.render_memo import RenderMemo
 from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT, GROUP_SCENE, GROUP_TARGET
 from envs.sensing.triangulation import camera_array, camera_floats, triangulate_elementwise
 from envs.sensing.viewports import View, ViewportRenderer, Window
@@ -203,6 +204,10 @@ class StereoRig(CameraPair):
     Args:
         model, data: a MuJoCo scene; camera poses are read from ``data`` (fixed cameras).
         height, width: sensing image size in pixels.
+
+    Sensing keeps its last renderings (:class:`envs.sensing.render_memo.RenderMemo`) and does
+    not draw views again whose scene has not changed; ``reuse_renders = False`` draws every
+    one (the reference: the same sightings).
     """
 
     def __init__(
@@ -222,6 +227,8 @@ class StereoRig(CameraPair):
         self.refresh(data)
         # Both cameras side by side in one buffer, rendered and read back together.
         self._renderer = ViewportRenderer(model, height, 2 * width, plane_grid=SENSING_PLANE_GRID)
+        self.reuse_renders = True
+        self._memo = RenderMemo()
 
     def refresh(self, data: mujoco.MjData) -> None:
         """Re-read both cameras from the model and ``data`` (after ``mj_forward``): after a change
@@ -236,6 +243,11 @@ class StereoRig(CameraPair):
         """How many renderings (read-backs) this rig has made, and how many camera views they
         drew (whole images or windows)."""
         return self._renderer.renders, self._renderer.views_drawn
+
+    @property
+    def reused(self) -> int:
+        """How many renderings sensing took from the ones kept instead of drawing them."""
+        return self._memo.reused
 
     def views(self, windows: Sequence[Window] | None = None) -> list[View]:
         """One :class:`View` per camera: its whole image, or the given windows."""
@@ -368,10 +380,14 @@ class StereoRig(CameraPair):
         if windows is None:  # whole images show the scene; windows skip its static background
             groups = (GROUP_SCENE, *groups)
         views = self.views(windows)
-        return views, self._renderer.render(data, views, groups)
+        if not self.reuse_renders:
+            return views, self._renderer.render(data, views, groups)
+        key = self._memo.key(self.model, data, groups, views)
+        return views, self._memo.get(key, lambda: self._renderer.render(data, views, groups))
 
     def close(self) -> None:
         self._renderer.close()
+        self._memo.clear()
 
 
 def _outline(

@@ -45,8 +45,10 @@ US_PER_S = 1e6
 
 
 def use_plain_path(env: ReachEnv) -> None:
-    """Make ``env`` take the reference path: every foveated window rendered
-    (``FoveatedSensing.skip_blind`` off) and the numpy settle test."""
+    """Make ``env`` take the reference path: every view drawn (``StereoRig.reuse_renders``
+    off), every foveated window rendered (``FoveatedSensing.skip_blind`` off) and the numpy
+    settle test."""
+    env.stereo.reuse_renders = False
     env.fovea.skip_blind = False
     env.moving = moving_numpy
 
@@ -114,7 +116,7 @@ class Arm:
         sensor.sense_target = self.clock.wrap(sensor.sense_target, "sensing")  # type: ignore[method-assign]
         sensor.sense_effector = self.clock.wrap(sensor.sense_effector, "sensing")  # type: ignore[method-assign]
         self.start = env.work_counts()  # the initial map's resets are not trials
-        self.skipped_start = env.fovea.skipped
+        self.skipped_start, self.reused_start = env.fovea.skipped, env.stereo.reused
         self.seconds = 0.0
         self.moves = 0
         self.trials: list[bytes] = []
@@ -146,6 +148,7 @@ class Arm:
             "views_per_trial": counts.views / trials,
             "fallbacks_per_trial": counts.fallbacks / trials,
             "windows_skipped_per_trial": (self.env.fovea.skipped - self.skipped_start) / trials,
+            "renders_reused_per_trial": (self.env.stereo.reused - self.reused_start) / trials,
             "physics_steps_per_trial": counts.physics_steps / trials,
             "physics_steps_per_move": counts.physics_steps / max(self.moves, 1),
             "ms_per_trial": self.seconds / trials * MS_PER_S,
@@ -210,7 +213,8 @@ def format_table(results: dict[str, Any]) -> str:
         f"{results['setting']['control']} moves, seed {results['seed']}); load average "
         f"{results['load_average_before'][0]} before, {results['load_average_after'][0]} after, "
         f"{results['cores']} cores",
-        f"{'env':<14} {'arm':<8} {'moves':>5} {'renders':>7} {'views':>6} {'skipped':>7} "
+        f"{'env':<14} {'arm':<8} {'moves':>5} {'renders':>7} {'views':>6} {'reused':>6} "
+        f"{'skipped':>7} "
         f"{'steps':>6} {'/move':>6} {'ms':>6} {'physics':>7} {'sensing':>7} {'drawing':>7} "
         f"{'read':>6} {'rest':>6}",
     ]
@@ -219,6 +223,7 @@ def format_table(results: dict[str, Any]) -> str:
             lines.append(
                 f"{env['env']:<14} {r['arm']:<8} {r['moves_per_trial']:>5.2f} "
                 f"{r['renders_per_trial']:>7.2f} {r['views_per_trial']:>6.2f} "
+                f"{r['renders_reused_per_trial']:>6.2f} "
                 f"{r['windows_skipped_per_trial']:>7.2f} {r['physics_steps_per_trial']:>6.1f} "
                 f"{r['physics_steps_per_move']:>6.1f} {r['ms_per_trial']:>6.2f} "
                 f"{r['physics_ms']:>7.2f} {r['sensing_ms']:>7.2f} {r['drawing_ms']:>7.2f} "
