@@ -168,9 +168,9 @@ def test_the_memo_keeps_the_renderings_that_were_reused():
     def get(name: str) -> None:
         memo.get(((), (), name.encode()), lambda: draws.append(name) or _images())
 
-    for name in ("home", "a", "home", "b", "c", "home", "d", "e", "home"):
-        get(name)
-    assert draws == ["home", "a", "b", "c", "d", "e"]
+    for name in ("home", "a", "home", "b", "c", "d", "home", "e", "f", "g", "home"):
+        get(name)  # more poses passed through between two resets home than the memo holds
+    assert draws == ["home", "a", "b", "c", "d", "e", "f", "g"]
     assert memo.reused == 3
     images = memo.get(((), (), b"home"), _images)
     with pytest.raises(ValueError, match="read-only"):
