@@ -41,6 +41,7 @@ PROGRAMS: dict[str, tuple[list[str], tuple[str, str] | None, list[str]]] = {
     "sensing_accuracy": ([], ("--json", "file"), ["--poses"]),
     "framing": ([], ("--json", "file"), ["--moves", "--pixel-moves"]),
     "bench_envs": ([], ("--json", "file"), ["--steps"]),
+    "bench_trials": ([], ("--json", "file"), ["--trials", "--block"]),
     "bench_ik": ([], None, ["--single", "--batch"]),
     "make_arm": ([str(SCRIPTS.parent / "models" / "ur5e" / "dh.toml")], ("--out", "folder"), []),
 }
