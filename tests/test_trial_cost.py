@@ -55,14 +55,20 @@ def _commands(env, rng: np.random.Generator) -> list[np.ndarray]:
 
 
 @pytest.mark.parametrize(
-    ("env_id", "episodes"), [("RiacsReach-v0", 6), ("PumaReach-v0", 6), ("PumaGrasp-v0", 2)]
+    ("env_id", "sensing", "episodes"),
+    [
+        ("RiacsReach-v0", "foveated", 6),
+        ("PumaReach-v0", "foveated", 6),
+        ("PumaGrasp-v0", "foveated", 2),
+        ("RiacsReach-v0", "render", 4),
+    ],
 )
-def test_the_envs_path_gives_the_plain_paths_moves_bit_for_bit(env_id, episodes):
+def test_the_envs_path_gives_the_plain_paths_moves_bit_for_bit(env_id, sensing, episodes):
     """Every observation, reward and info, and the final simulation state, of the default env
     equal those of an env on the plain path (every view drawn, every window rendered, the
     numpy settle test), over resets home and where the arm was, and a moved camera."""
-    default = gym.make(env_id, **REALISTIC).unwrapped
-    plain = gym.make(env_id, **REALISTIC).unwrapped
+    default = gym.make(env_id, sensing=sensing, control="servo").unwrapped
+    plain = gym.make(env_id, sensing=sensing, control="servo").unwrapped
     use_plain_path(plain)
     rng = np.random.default_rng(7)
     for episode in range(episodes):
