@@ -3,9 +3,11 @@ shows has changed (the reach task's arm back at its start pose at every reset, d
 the target, which moved).
 
 A rendering is known by everything it reads that can change between calls (:func:`scene_key`):
-the views (cameras, intrinsics, windows), the geom groups drawn, the poses, sizes, colours and
-kinds of the geoms in those groups, the poses of the sites MuJoCo draws, the cameras' poses and
-fields of view, and the lights. The renderer's own settings are fixed when it is made.
+the views (cameras, intrinsics, windows), the geom groups drawn, the poses, sizes, colours,
+materials and kinds of the geoms in those groups, the poses of the sites MuJoCo draws, the
+cameras' poses and fields of view, and the lights. The renderer's own settings and the model's
+visual options (``model.vis``: headlight, clipping planes) are fixed when it is made; a caller
+that edits those turns reuse off (``StereoRig.reuse_renders``).
 """
 
 from __future__ import annotations
@@ -60,6 +62,14 @@ def scene_key(
         model.cam_fovy,
         model.cam_intrinsic,
         model.cam_sensorsize,
+        model.mat_rgba,
+        model.site_group,
+        model.site_size,
+        model.site_rgba,
+        model.light_active,
+        model.light_ambient,
+        model.light_diffuse,
+        model.light_specular,
         data.geom_xpos[geoms],
         data.geom_xmat[geoms],
         data.site_xpos[sites],
