@@ -32,7 +32,7 @@ FLAGS = {
                   "--seed", "--trials"},
     "bench_workers": {"--control", "--env", "--fine-moves", "--lattice", "--out", "--round-sizes",
                       "--seed", "--seeds", "--sensing", "--targets", "--trials", "--workers"},
-    "bench_trials": {"--block", "--envs", "--json", "--seed", "--trials"},
+    "bench_trials": {"--block", "--envs", "--json", "--seed", "--settle-speeds", "--trials"},
     "compare_rl": {"--also-at", "--budget", "--checkpoints", "--control", "--env",
                    "--episode-steps", "--methods", "--out", "--report-only", "--seeds",
                    "--sensing", "--table-at", "--targets", "--variants"},

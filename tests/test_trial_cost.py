@@ -14,7 +14,7 @@ from envs.reach import SETTLE_SPEED, moving, moving_numpy
 from envs.scene import INTEGRATION_STATE
 from envs.sensing.marker_detection import GREEN_EFFECTOR
 from envs.sensing.render_memo import RenderMemo
-from envs.studies.trial_cost import use_plain_path
+from envs.studies.trial_cost import settle_step, use_plain_path
 from learners import AnalyticIK
 
 REALISTIC = {"sensing": "foveated", "control": "servo"}
@@ -207,4 +207,21 @@ def test_a_rendering_is_drawn_again_when_what_it_shows_changed():
     env.model.geom_rgba[env.effector_geom_ids[0], 1] += 0.01
     env.perturb({"zoom": 1.01})  # the cameras: the views' intrinsics and MuJoCo's
     assert key() != first
+    env.close()
+
+
+def test_the_studys_settle_rule_ends_each_move_where_the_env_did():
+    """settle_step, the study's copy of the settle rule, ends every recorded servo move at its
+    last physics step with the env's own speed, and no later with a faster one."""
+    env = gym.make("PumaReach-v0", sensing="project", control="servo").unwrapped
+    env.reset(seed=0)
+    trace: list[tuple[float, float]] = []
+    env.on_physics_step = lambda t: trace.append((t, float(np.abs(env.data.qvel).max())))
+    rng = np.random.default_rng(1)
+    for _ in range(8):
+        trace.clear()
+        env.step(rng.uniform(env.action_space.low, env.action_space.high))
+        elapsed, speeds = (np.array(column) for column in zip(*trace, strict=True))
+        assert settle_step(elapsed, speeds, SETTLE_SPEED) == len(trace) - 1
+        assert settle_step(elapsed, speeds, 10 * SETTLE_SPEED) < len(trace) - 1
     env.close()

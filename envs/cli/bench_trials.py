@@ -3,7 +3,7 @@ trial (foveated sensing, servo moves, ``train.py``'s trials), the reference path
 envs' own taking turns in one run, their trials compared bit for bit.
 
     .venv/bin/python scripts/bench.py trials [--trials 200] [--envs RiacsReach-v0 ...]
-        [--block 20] [--json runs/bench_trials.json]
+        [--block 20] [--settle-speeds 0.002 0.005] [--json runs/bench_trials.json]
 
 Columns per trial: moves (coarse, fine and recovery), renders (read-backs of the sensing
 cameras), views drawn in them, foveated windows skipped (they could not show the marker),
@@ -11,6 +11,10 @@ physics steps (and per move), then ms: the whole trial, physics (the servo moves
 settle test), sensing (with its drawing and read-back), the rest (learning, the env's own
 arithmetic). Arms: ``plain`` renders every window and tests the settle with numpy; ``default``
 is what the envs do.
+
+``--settle-speeds`` also records every physics step of the default path's servo moves and tells,
+for each settle speed (beside the envs' own), the steps a move would take and how far the sensed
+point still moved between that earlier stop and the move's end.
 """
 
 from __future__ import annotations
@@ -32,11 +36,24 @@ def main(argv: list[str] | None = None) -> dict:
         default=list(trial_cost.ENV_IDS),
         help="the envs measured",
     )
+    parser.add_argument(
+        "--settle-speeds",
+        nargs="+",
+        type=cli.positive_float,
+        default=None,
+        help="also: the steps a move would take with these settle speeds (rad/s)",
+    )
     options.SEED.add(parser)
     options.JSON.add(parser)
     args = parser.parse_args(argv)
     results = trial_cost.benchmark(tuple(args.envs), args.trials, args.block, args.seed)
     print(trial_cost.format_table(results))
+    if args.settle_speeds is not None:
+        speeds = [trial_cost.SETTLE_SPEED, *args.settle_speeds]
+        results["settle_speeds"] = [
+            trial_cost.settle_speeds(env_id, args.trials, args.seed, speeds) for env_id in args.envs
+        ]
+        print("\n".join(map(trial_cost.format_settle, results["settle_speeds"])))
     if args.json is not None:
         write_json(args.json, results)
         print(f"wrote {args.json}")

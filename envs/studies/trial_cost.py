@@ -27,7 +27,15 @@ import mujoco
 import numpy as np
 
 from envs.harness.training import RunConfig, Trainer
-from envs.reach import ReachEnv, moving, moving_numpy
+from envs.reach import (
+    MAX_SETTLE_TIME,
+    MIN_SETTLE_TIME,
+    SETTLE_SPEED,
+    SETTLE_WINDOW,
+    ReachEnv,
+    moving,
+    moving_numpy,
+)
 from envs.scene import INTEGRATION_STATE, WorkCounts
 
 #: The envs measured: the reach envs of the two published arms and the grasp env.
@@ -41,6 +49,7 @@ PARTS = ("physics", "sensing", "drawing", "read_back")
 DRAW_CALLS = ("mjv_updateScene", "mjv_updateCamera", "mjr_render")
 READ_CALLS = ("mjr_readPixels",)
 MS_PER_S = 1e3
+MM_PER_M = 1e3
 US_PER_S = 1e6
 
 
@@ -190,6 +199,88 @@ def measure(env_id: str, trials: int, block: int, seed: int) -> dict[str, Any]:
             for arm in arms:
                 arm.trainer.close()
     return {"env": env_id, "rows": [arm.row(trials) for arm in arms], "identical": same}
+
+
+def settle_step(elapsed: np.ndarray, speeds: np.ndarray, speed: float) -> int:
+    """The physics step (index) at which a servo move whose steps ended at ``elapsed`` (n,) s
+    with greatest joint speeds ``speeds`` (n,) rad/s would end were its settle speed ``speed``
+    (rad/s): the rule of ``ReachEnv``'s moves with another threshold (the last step if it never
+    settles within them)."""
+    slow_since = None
+    for i, (t, v) in enumerate(zip(elapsed.tolist(), speeds.tolist(), strict=True)):
+        if v >= speed:
+            slow_since = None
+        elif slow_since is None:
+            slow_since = t
+        settled = slow_since is not None and t - slow_since >= SETTLE_WINDOW
+        if (t >= MIN_SETTLE_TIME and settled) or t >= MAX_SETTLE_TIME:
+            return i
+    return len(elapsed) - 1
+
+
+def settle_speeds(env_id: str, trials: int, seed: int, speeds: list[float]) -> dict[str, Any]:
+    """What a faster settle rule would save: over ``trials`` training trials (the default
+    path), each servo move's physics steps recorded (``ReachEnv.on_physics_step``), and for
+    each settle speed of ``speeds`` (rad/s) the steps a move would take and how far (mm) the
+    sensed point still moved between that stop and the move's actual end. SETTLE_SPEED itself
+    must give every move's own steps (checked: ``matches``)."""
+    config = RunConfig.of(env=env_id, trials=trials, seed=seed, **SETTING)
+    trace: list[tuple[float, float, np.ndarray]] = []  # elapsed s, max |qvel|, sensed point
+    with tempfile.TemporaryDirectory(prefix="settle_speeds-") as scratch:
+        trainer = Trainer(config, Path(scratch) / "run")
+        env = cast(ReachEnv, trainer.env.unwrapped)
+        qvel = env.data.qvel
+
+        def record(elapsed: float) -> None:
+            trace.append((elapsed, float(np.max(np.abs(qvel))), env.sensed_point()))
+
+        env.on_physics_step = record
+        try:
+            for _ in range(trials):
+                trainer.train_one()
+        finally:
+            trainer.close()
+    starts = [i for i, (t, _, _) in enumerate(trace) if i == 0 or t <= trace[i - 1][0]]
+    moves = [trace[a:b] for a, b in zip(starts, [*starts[1:], len(trace)], strict=True)]
+    steps = np.zeros(len(speeds), dtype=int)  # per speed, over the moves
+    moved = np.zeros((len(moves), len(speeds)))  # m, per move and speed
+    matches = True
+    for m, move in enumerate(moves):
+        elapsed = np.array([t for t, _, _ in move])
+        fastest = np.array([v for _, v, _ in move])
+        matches &= settle_step(elapsed, fastest, SETTLE_SPEED) == len(move) - 1
+        for j, speed in enumerate(speeds):
+            stop = settle_step(elapsed, fastest, speed)
+            steps[j] += stop + 1
+            moved[m, j] = np.linalg.norm(move[-1][2] - move[stop][2])
+    return {
+        "env": env_id,
+        "moves": len(moves),
+        "matches": bool(matches),
+        "rows": [
+            {
+                "settle_speed": speed,
+                "steps_per_move": float(steps[j]) / max(len(moves), 1),
+                "moved_mm_mean": float(moved[:, j].mean()) * MM_PER_M,
+                "moved_mm_max": float(moved[:, j].max()) * MM_PER_M,
+            }
+            for j, speed in enumerate(speeds)
+        ],
+    }
+
+
+def format_settle(results: dict[str, Any]) -> str:
+    lines = [
+        f"{results['env']}: {results['moves']} servo moves; the rule at {SETTLE_SPEED} rad/s "
+        f"{'gives' if results['matches'] else 'DOES NOT give'} every move's own steps",
+        f"{'settle speed rad/s':>18} {'steps/move':>10} {'moved after, mean mm':>20} {'max mm':>7}",
+    ]
+    for r in results["rows"]:
+        lines.append(
+            f"{r['settle_speed']:>18g} {r['steps_per_move']:>10.1f} "
+            f"{r['moved_mm_mean']:>20.4f} {r['moved_mm_max']:>7.3f}"
+        )
+    return "\n".join(lines)
 
 
 def benchmark(env_ids: tuple[str, ...], trials: int, block: int, seed: int) -> dict[str, Any]:
