@@ -67,8 +67,9 @@ class FoveatedSensing:
         density: window pixels per base pixel; margin: see FOVEA_MARGIN_PX.
         skip_blind: given where the spheres are (``centres`` of :meth:`sense_many`), do not
             render windows that cannot show them (:meth:`can_show`): the whole images are
-            rendered at once, as after windows that showed nothing, with the same sightings.
-            False renders every window (the reference).
+            rendered at once, as after windows that showed nothing; and draw in the whole
+            images only the geoms that can reach near the spheres' images (:meth:`regions`).
+            The same sightings; False renders every window and geom (the reference).
     """
 
     def __init__(
@@ -171,8 +172,13 @@ class FoveatedSensing:
                     continue
             pending.append(k)
         self.fallbacks += len(pending)
+        culls = None
+        if self.skip_blind and centres is not None and pending:
+            culls = self.regions(centres[pending], radius)
         wholes = (
-            self.stereo.sense_many(data, [markers[k] for k in pending], radius) if pending else []
+            self.stereo.sense_many(data, [markers[k] for k in pending], radius, culls=culls)
+            if pending
+            else []
         )
         for k, (whole, whole_visible) in zip(pending, wholes, strict=True):
             found[k] = (whole, whole_visible)
@@ -204,6 +210,25 @@ class FoveatedSensing:
             ):
                 return True
         return False
+
+    def regions(self, centres: np.ndarray, radius: float) -> list[Window | None]:
+        """Per camera, the part of its whole image (density 1) that holds the images of spheres
+        of ``radius`` (m) at ``centres`` (M, 3) m with BLIND_MARGIN_PX round them (the squares
+        of :meth:`can_show`), clipped to the image; None where a sphere reaches the camera's
+        plane. Outside it a whole image shows none of them and no pixel next to them."""
+        st = self.stereo
+        out: list[Window | None] = []
+        for camera in st.cameras:
+            if np.any((camera.position - centres) @ camera.rotation[:, 2] <= radius):
+                out.append(None)
+                continue
+            uv = camera.project(centres)  # (M, 2) px
+            reach = 2.0 * camera.sphere_semi_axes(centres, radius)[:, :1] + BLIND_MARGIN_PX
+            low = np.maximum((uv - reach).min(axis=0), -0.5)  # (2,) px
+            high = np.minimum((uv + reach).max(axis=0), [st.width - 0.5, st.height - 0.5])
+            size = np.maximum(np.ceil(high - low), 1.0)
+            out.append(Window(float(low[0]), float(low[1]), int(size[0]), int(size[1])))
+        return out
 
     def hidden(
         self, seen: SphereSighting, windows: list[Window], expected: np.ndarray, radius: float

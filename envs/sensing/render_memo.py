@@ -86,6 +86,7 @@ def scene_key(
             v.center.tobytes(),
             v.window,
             None if v.pose is None else (v.pose[0].tobytes(), v.pose[1].tobytes()),
+            v.cull,
         )
         for v in views
     )

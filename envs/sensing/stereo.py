@@ -249,13 +249,20 @@ class StereoRig(CameraPair):
         """How many renderings sensing took from the ones kept instead of drawing them."""
         return self._memo.reused
 
-    def views(self, windows: Sequence[Window] | None = None) -> list[View]:
-        """One :class:`View` per camera: its whole image, or the given windows."""
+    def views(
+        self,
+        windows: Sequence[Window] | None = None,
+        culls: Sequence[Window | None] | None = None,
+    ) -> list[View]:
+        """One :class:`View` per camera: its whole image, or the given windows; ``culls``: per
+        camera, the part of its whole image whose pixels matter (:attr:`View.cull`), or None."""
         if windows is None:
             windows = [Window.full(self.height, self.width)] * 2
+        if culls is None:
+            culls = [None, None]
         return [
-            View(name, cam.focal, cam.center, w)
-            for name, cam, w in zip(self.camera_names, self.cameras, windows, strict=True)
+            View(name, cam.focal, cam.center, w, cull=c)
+            for name, cam, w, c in zip(self.camera_names, self.cameras, windows, culls, strict=True)
         ]
 
     def sense(
@@ -305,11 +312,14 @@ class StereoRig(CameraPair):
         markers: Sequence[MarkerColour],
         radius: float | None = None,
         windows: Sequence[Window] | None = None,
+        culls: Sequence[Window | None] | None = None,
     ) -> list[tuple[np.ndarray, np.ndarray]]:
         """:meth:`sense` of several spheres of different colours (all targets, or all on the
         arm, each of ``radius``), found in one rendering of both cameras: one (pixels (4,),
-        visible (2,)) per marker, in their order."""
-        views, images = self._render(data, markers[0], windows)
+        visible (2,)) per marker, in their order. ``culls``: with whole images, per camera the
+        part that holds every marker's image and a pixel round it, or None (:attr:`View.cull`:
+        the same sightings, fewer geoms drawn)."""
+        views, images = self._render(data, markers[0], windows, culls)
         if radius is not None:
             return [self._sphere(views, images, m, radius)[:2] for m in markers]
         found = []
@@ -367,7 +377,11 @@ class StereoRig(CameraPair):
         return self._renderer.render(data, self.views(windows), groups)
 
     def _render(
-        self, data: mujoco.MjData, marker: MarkerColour, windows: Sequence[Window] | None
+        self,
+        data: mujoco.MjData,
+        marker: MarkerColour,
+        windows: Sequence[Window] | None,
+        culls: Sequence[Window | None] | None = None,
     ) -> tuple[list[View], list[tuple[np.ndarray, np.ndarray]]]:
         """The views and their (RGB, depth) images, drawing the marker's geom groups."""
         groups: tuple[int, ...]
@@ -379,7 +393,7 @@ class StereoRig(CameraPair):
             groups = (GROUP_ROBOT, GROUP_MARKER)
         if windows is None:  # whole images show the scene; windows skip its static background
             groups = (GROUP_SCENE, *groups)
-        views = self.views(windows)
+        views = self.views(windows, culls)
         if not self.reuse_renders:
             return views, self._renderer.render(data, views, groups)
         key = self._memo.key(self.model, data, groups, views)

@@ -94,6 +94,10 @@ class View:
     ``pose`` (world position (3,) m, rotation (3, 3) whose columns are the camera's right, up
     and backwards) places a camera that the model does not have: ``camera`` is then only its
     name, and the view is drawn from that pose through the frustum of ``focal`` and ``center``.
+
+    ``cull`` (a whole image's view of a model camera): the part of the image (base px, density
+    1) whose pixels matter; geoms that cannot reach into it are not drawn. The view keeps its
+    own frustum, so every pixel inside that part is the one a full drawing gives.
     """
 
     camera: str
@@ -101,6 +105,7 @@ class View:
     center: np.ndarray  # (2,) px of the base image
     window: Window
     pose: tuple[np.ndarray, np.ndarray] | None = None
+    cull: Window | None = None
 
     @classmethod
     def whole(cls, camera: str, height: int, width: int) -> View:
@@ -316,12 +321,17 @@ class ViewportRenderer:
             window = (
                 view.window.density != 1.0 or view.window.left != -0.5 or view.window.top != -0.5
             )
-            if window and view.pose is None:  # a posed view is whole, framed by place_camera
-                _set_frustum(scene, view)
+            part = view.window if window else view.cull
+            if view.pose is None and part is not None:  # a posed view: framed by place_camera
                 if culling is None:
                     geoms, ids = self._model_geoms(scene, tuple(groups))
                     culling = (geoms, *_bounding_capsules(self.model, data, ids))
-                hidden = _hide_outside(scene, *culling, view.window.depth)
+                whole = [_frustum(glcam) for glcam in scene.camera]
+                _set_frustum(scene, View(view.camera, view.focal, view.center, part))
+                hidden = _hide_outside(scene, *culling, part.depth)
+                if not window:  # culled with the part's frustum, drawn with the whole one
+                    for glcam, kept in zip(scene.camera, whole, strict=True):
+                        _restore_frustum(glcam, kept)
             w = view.window
             mujoco.mjr_render(mujoco.MjrRect(x, 0, w.width, w.height), scene, context)
             for geom, kind in hidden:
@@ -384,6 +394,15 @@ def _set_frustum(scene, view: View) -> None:
         glcam.frustum_width = (right - w.left) / 2 / fu * near  # half-width, used when set
         glcam.frustum_top = (cv - w.top) / fv * near
         glcam.frustum_bottom = (cv - bottom) / fv * near
+
+
+def _frustum(glcam) -> tuple[float, float, float, float]:
+    """A GL camera's frustum fields (centre, half-width, top, bottom), to restore later."""
+    return glcam.frustum_center, glcam.frustum_width, glcam.frustum_top, glcam.frustum_bottom
+
+
+def _restore_frustum(glcam, frustum: tuple[float, float, float, float]) -> None:
+    glcam.frustum_center, glcam.frustum_width, glcam.frustum_top, glcam.frustum_bottom = frustum
 
 
 def _bounding_capsules(
