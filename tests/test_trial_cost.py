@@ -12,6 +12,7 @@ import pytest
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.reach import SETTLE_SPEED, moving, moving_numpy
 from envs.scene import INTEGRATION_STATE
+from envs.sensing.foveated import CULL_MARGIN_PX
 from envs.sensing.marker_detection import GREEN_EFFECTOR
 from envs.sensing.render_memo import RenderMemo
 from envs.studies.trial_cost import settle_step, use_plain_path
@@ -224,4 +225,33 @@ def test_the_studys_settle_rule_ends_each_move_where_the_env_did():
         elapsed, speeds = (np.array(column) for column in zip(*trace, strict=True))
         assert settle_step(elapsed, speeds, SETTLE_SPEED) == len(trace) - 1
         assert settle_step(elapsed, speeds, 10 * SETTLE_SPEED) < len(trace) - 1
+    env.close()
+
+
+def test_a_culled_whole_image_is_the_full_one_about_the_marker():
+    """Whole images that draw only the geoms reaching near the marker's image give, over random
+    poses, the full drawing's colours and depths about the marker (the culled part less its
+    margin) and the same sighting; without the margin some views differ near its edge."""
+    env = gym.make("PumaReach-v0", **REALISTIC).unwrapped
+    env.reset(seed=0)
+    fovea, stereo = env.fovea, env.stereo
+    stereo.reuse_renders = False
+    groups = (0, 2, 4)  # floor, robot, marker: the arm's whole images
+    rng = np.random.default_rng(5)
+    for _ in range(60):
+        env.set_joints(rng.uniform(env.joint_lower, env.joint_upper))
+        culls = fovea.regions(env.sensed_point()[None], env.marker_radius)
+        full = stereo.render_views(env.data, groups)
+        culled = stereo._renderer.render(env.data, stereo.views(None, culls), groups)
+        for (rgb, depth), (rgb_c, depth_c), part in zip(full, culled, culls, strict=True):
+            if part is None:
+                continue
+            top, left = (round(x + CULL_MARGIN_PX + 0.5) for x in (part.top, part.left))
+            rows = slice(max(top, 0), max(top + part.height - 2 * round(CULL_MARGIN_PX), 0))
+            cols = slice(max(left, 0), max(left + part.width - 2 * round(CULL_MARGIN_PX), 0))
+            assert rgb[rows, cols].tobytes() == rgb_c[rows, cols].tobytes()
+            assert depth[rows, cols].tobytes() == depth_c[rows, cols].tobytes()
+        seen = stereo.sense_many(env.data, [GREEN_EFFECTOR], env.marker_radius)[0]
+        seen_c = stereo.sense_many(env.data, [GREEN_EFFECTOR], env.marker_radius, culls=culls)[0]
+        _same(seen, seen_c)
     env.close()

@@ -57,6 +57,10 @@ HIDDEN_BORDER_PX = 1.0
 #: cannot draw a pixel in them (room for rasterisation; the image's extent is bounded
 #: generously, :meth:`FoveatedSensing.can_show`).
 BLIND_MARGIN_PX = 2.0
+#: Base px added round the part of a whole image whose pixels a sighting reads before geoms are
+#: culled to it (:meth:`FoveatedSensing.regions`): the culling frustum comes from the pinhole
+#: intrinsics, the drawing from MuJoCo's own, and the two differ by about a pixel.
+CULL_MARGIN_PX = 8.0
 
 
 class FoveatedSensing:
@@ -212,10 +216,11 @@ class FoveatedSensing:
         return False
 
     def regions(self, centres: np.ndarray, radius: float) -> list[Window | None]:
-        """Per camera, the part of its whole image (density 1) that holds the images of spheres
-        of ``radius`` (m) at ``centres`` (M, 3) m with BLIND_MARGIN_PX round them (the squares
-        of :meth:`can_show`), clipped to the image; None where a sphere reaches the camera's
-        plane. Outside it a whole image shows none of them and no pixel next to them."""
+        """Per camera, the part of its whole image (density 1) whose pixels a sighting of
+        spheres of ``radius`` (m) at ``centres`` (M, 3) m reads: the squares of
+        :meth:`can_show` about their images, widened by CULL_MARGIN_PX (geoms are culled with
+        the pinhole intrinsics, drawn with MuJoCo's own frustum). None where a sphere reaches
+        the camera's plane or none of the squares meets the image (nothing culled there)."""
         st = self.stereo
         out: list[Window | None] = []
         for camera in st.cameras:
@@ -224,9 +229,12 @@ class FoveatedSensing:
                 continue
             uv = camera.project(centres)  # (M, 2) px
             reach = 2.0 * camera.sphere_semi_axes(centres, radius)[:, :1] + BLIND_MARGIN_PX
-            low = np.maximum((uv - reach).min(axis=0), -0.5)  # (2,) px
-            high = np.minimum((uv + reach).max(axis=0), [st.width - 0.5, st.height - 0.5])
-            size = np.maximum(np.ceil(high - low), 1.0)
+            low, high = (uv - reach).min(axis=0), (uv + reach).max(axis=0)  # (2,) px
+            if np.any(high < -0.5) or np.any(low > [st.width - 0.5, st.height - 0.5]):
+                out.append(None)
+                continue
+            low = low - CULL_MARGIN_PX
+            size = np.ceil(high - low + CULL_MARGIN_PX)
             out.append(Window(float(low[0]), float(low[1]), int(size[0]), int(size[1])))
         return out
 
