@@ -13,7 +13,7 @@ import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.reach import SETTLE_SPEED, moving, moving_numpy
 from envs.scene import INTEGRATION_STATE
 from envs.sensing.foveated import CULL_MARGIN_PX
-from envs.sensing.marker_detection import GREEN_EFFECTOR
+from envs.sensing.marker_detection import GREEN_EFFECTOR, Blob, edges_in, outline_edges
 from envs.sensing.render_memo import RenderMemo
 from envs.studies.trial_cost import settle_step, use_plain_path
 from learners import AnalyticIK
@@ -255,3 +255,20 @@ def test_a_culled_whole_image_is_the_full_one_about_the_marker():
         seen_c = stereo.sense_many(env.data, [GREEN_EFFECTOR], env.marker_radius, culls=culls)[0]
         _same(seen, seen_c)
     env.close()
+
+
+def test_outline_edges_scan_the_blobs_box_and_find_the_whole_views_points():
+    """outline_edges, which scans the blob's bounding box and a pixel round it, gives the
+    points of edges_in over the whole view, in the same order, bit for bit: blobs in the
+    middle, at each border and in a corner, with specks."""
+    rng = np.random.default_rng(2)
+    shape = (60, 80)
+    rows, cols = np.mgrid[: shape[0], : shape[1]]
+    for centre in [(30, 40), (0, 40), (59, 40), (30, 0), (30, 79), (0, 0), (59, 79)]:
+        disc = (rows - centre[0]) ** 2 + (cols - centre[1]) ** 2 < 9.0**2
+        mask = disc | ((rng.random(shape) < 0.01) & (abs(rows - centre[0]) < 12))
+        depth = rng.uniform(1.0, 1.2, shape)
+        blob = Blob(mask, int(mask.sum()), False)
+        points = outline_edges(blob, depth, 0.01)
+        assert len(points) > 10
+        assert points.tobytes() == edges_in(mask, depth, 0.01).tobytes()

@@ -127,11 +127,26 @@ def outline_edges(blob: Blob, depth: np.ndarray, margin: float = 0.0) -> np.ndar
     Args:
         depth: (h, w) distance along the optical axis, m, of the same render.
         margin: m; a fraction of the sphere's radius.
-    With numba (``sensing_kernels.ENABLED``) the same points come from a compiled loop.
+    Only the blob's bounding box and a pixel round it are scanned (no neighbour pair outside
+    holds a blob pixel): the points of :func:`edges_in` over the whole view, in its order.
     """
+    x, y, w, h = cv2.boundingRect(blob.mask.view(np.uint8))
+    top, left = max(y - 1, 0), max(x - 1, 0)
+    part = (slice(top, y + h + 1), slice(left, x + w + 1))
+    points = edges_in(blob.mask[part], depth[part], margin)
+    points[:, 0] += left
+    points[:, 1] += top
+    return points
+
+
+def edges_in(mask: np.ndarray, depth: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """:func:`outline_edges` of a blob ``mask`` (h, w) bool scanning all of it: points (m, 2)
+    (column, row), vertical neighbour pairs first, each in row-major order. With numba
+    (``sensing_kernels.ENABLED``) the same points come from a compiled loop."""
+
     if sensing_kernels.ENABLED:
-        return sensing_kernels.outline_edges(blob.mask, depth, float(margin))
-    m, z = blob.mask, depth
+        return sensing_kernels.outline_edges(mask, depth, float(margin))
+    m, z = mask, depth
     points = []
     for axis in (0, 1):
         first = [slice(None), slice(None)]
