@@ -251,7 +251,7 @@ class GraspEnv(ReachEnv):
         ``sample`` (the PUMA's :func:`~models.puma560.grasp.sample_grasp_pose`) in the
         (shifted) workspace box."""
         shift = self.perturbation.base_shift
-        box = self.spec_robot.workspace
+        box = self.robot_spec.workspace
         box = BoxWorkspace(box.lower + shift, box.upper + shift)
         probe = self._probe  # the arm where the episode starts, once for every draw
         probe.qpos[:] = self.data.qpos if self._keep_arm else self.model.key_qpos[self._home]

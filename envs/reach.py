@@ -458,7 +458,7 @@ class ReachEnv(ArmScene):
         """The next target's world position (3,) m and orientation (a unit quaternion (4,), or
         None to leave the mocap body's), drawn with ``np_random``: a point uniform in the
         robot's workspace, moved with the base."""
-        target = self.spec_robot.workspace.sample_one(self.np_random)
+        target = self.robot_spec.workspace.sample_one(self.np_random)
         return target + self.perturbation.base_shift, None
 
     def close(self) -> None:
@@ -512,7 +512,7 @@ class ReachEnv(ArmScene):
         """``change`` as a Perturbation that keeps the workspace in view; PerturbationError
         before anything changes else."""
         change = Perturbation.of(change)
-        self._editor.check(change, self.spec_robot.workspace)
+        self._editor.check(change, self.robot_spec.workspace)
         return change
 
     def _apply(self, change: Perturbation) -> Perturbation:
@@ -537,7 +537,7 @@ class ReachEnv(ArmScene):
         """The window of ``render_mode="human"``, framed on this robot's workspace."""
         return HumanViewer(
             self.metadata["render_fps"],
-            self.spec_robot.workspace,
+            self.robot_spec.workspace,
             self.target_geom_ids,
             self.effector_geom_ids,
         )
@@ -552,7 +552,7 @@ class ReachEnv(ArmScene):
     @property
     def reach(self) -> float:
         """The robot's reach in metres, for errors in % of the robot's size."""
-        return self.spec_robot.reach
+        return self.robot_spec.reach
 
     def _check_action(self, action: np.ndarray) -> tuple[np.ndarray, bool]:
         """The command (J,) rad for the controlled joints, clipped into their ranges, and

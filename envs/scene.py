@@ -72,11 +72,11 @@ class ArmScene(gym.Env):
         height: int,
         markers: MarkerSet | None = None,
     ) -> None:
-        self.spec_robot: RobotSpec = robot_spec(robot)
-        width, height = check_image_size(width, height, self.spec_robot.image_aspect)
+        self.robot_spec: RobotSpec = robot_spec(robot)
+        width, height = check_image_size(width, height, self.robot_spec.image_aspect)
         self.image_width, self.image_height = width, height
-        self.markers = self.spec_robot.reach_markers(joints) if markers is None else markers
-        self.model = self.spec_robot.load_model(self.markers.scene)
+        self.markers = self.robot_spec.reach_markers(joints) if markers is None else markers
+        self.model = self.robot_spec.load_model(self.markers.scene)
         self.data = mujoco.MjData(self.model)
         self._home = self.model.key(self.markers.start_key).id  # where every episode starts
         self._joint_ids = np.array([self.model.joint(f"joint{i + 1}").id for i in range(joints)])
@@ -86,7 +86,7 @@ class ArmScene(gym.Env):
         self.joint_lower = self.model.jnt_range[self._joint_ids, 0].copy()  # rad
         self.joint_upper = self.model.jnt_range[self._joint_ids, 1].copy()  # rad
         self._site = self.model.site(self.markers.site).id
-        hide_geoms(self.model, self.spec_robot.task_geoms - set(self.markers.geoms))
+        hide_geoms(self.model, self.robot_spec.task_geoms - set(self.markers.geoms))
         self._effector_geoms = np.array([self.model.geom(g).id for g in self.markers.effector])
         self._target_geoms = np.array([self.model.geom(g).id for g in self.markers.target])
         self._target_mocap = int(

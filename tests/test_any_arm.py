@@ -237,7 +237,7 @@ def test_a_user_mjcf_reads_ranges_and_keyframe_and_reaches_through_its_cameras(u
     r = 0.3 * np.cos(q2) + 0.25 * np.cos(q2 + q3)
     z = 0.6 - 0.3 * np.sin(q2) - 0.25 * np.sin(q2 + q3)
     assert np.allclose(info["effector_pos"], [r * np.cos(q1), r * np.sin(q1), z], atol=TOL)
-    arm = base.spec_robot.kinematics.arm(3)
+    arm = base.robot_spec.kinematics.arm(3)
     theta, reachable = arm.inverse(info["target_pos"][None], None)
     assert reachable[0]
     _, _, _, _, info = env.step(theta[0])

@@ -161,8 +161,8 @@ def test_puma_effector_cut_by_the_border_is_not_sensed(sensing):
     it, and the observation keeps its goals inside the image."""
     env = gym.make("PumaReach-v0", sensing=sensing, control="kinematic")
     u = env.unwrapped
-    site = u.model.site(u.spec_robot.sensed[u.joints]).id
-    radius = float(u.model.geom(u.spec_robot.markers[u.joints]).size[0])
+    site = u.model.site(u.robot_spec.sensed[u.joints]).id
+    radius = float(u.model.geom(u.robot_spec.markers[u.joints]).size[0])
     size = (u.image_height, u.image_width)
     cameras = [u.model.camera(name).id for name in ("cam_left", "cam_right")]
     env.reset(seed=125)

@@ -389,7 +389,7 @@ def test_truncated_after_four_moves_never_terminated(robot):
 def _move_targets_to(env: ReachEnv, point: np.ndarray) -> None:
     """Make every following reset put the target at ``point``."""
     p = np.asarray(point, dtype=float)
-    env.spec_robot = dataclasses.replace(env.spec_robot, workspace=BoxWorkspace(p, p))
+    env.robot_spec = dataclasses.replace(env.robot_spec, workspace=BoxWorkspace(p, p))
 
 
 def _far_off_image(env: ReachEnv) -> np.ndarray:

@@ -40,7 +40,7 @@ def test_fine_moves_converge_to_second_order(setup):
     the map's moves leave 0.15-0.2."""
     servo, base = setup
     arm = servo.ik.arm
-    targets = base.spec_robot.workspace.sample(np.random.default_rng(1), 20)
+    targets = base.robot_spec.workspace.sample(np.random.default_rng(1), 20)
     poses, _ = arm.inverse(targets, None)
     offsets = np.random.default_rng(2).normal(0.0, 0.02, poses.shape)
     for pose, offset in zip(poses, offsets, strict=True):

@@ -135,14 +135,14 @@ def test_viewer_camera_frames_the_arm_and_the_workspace(robot):
     vertical field of view and a 4:3 horizontal one, seen from MuJoCo's free-camera pose."""
     env = ReachEnv(robot=robot, sensing="project", control="kinematic")
     camera = mujoco.MjvCamera()
-    frame_scene(camera, env.model, frame_points(env.model, env.data, env.spec_robot.workspace))
+    frame_scene(camera, env.model, frame_points(env.model, env.data, env.robot_spec.workspace))
     az, el = np.deg2rad(camera.azimuth), np.deg2rad(camera.elevation)
     forward = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
     eye = camera.lookat - camera.distance * forward
     right = np.cross(forward, [0.0, 0.0, 1.0])
     right /= np.linalg.norm(right)
     up = np.cross(right, forward)
-    targets = env.spec_robot.workspace.sample(np.random.default_rng(0), 200)
+    targets = env.robot_spec.workspace.sample(np.random.default_rng(0), 200)
     points = np.vstack([env.data.xpos[1:], targets])  # (bodies + 200, 3) m
     rel = points - eye
     depth = rel @ forward

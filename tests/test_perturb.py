@@ -84,7 +84,7 @@ def test_rendering_follows_a_moved_turned_zoomed_camera(robot):
 @pytest.mark.parametrize("robot", ["riacs", "puma560"])
 def test_zoom_scales_image_offsets_about_the_principal_point(robot):
     env = ReachEnv(robot=robot, sensing="project", control="kinematic")
-    points = env.spec_robot.workspace.sample(np.random.default_rng(1), 20)
+    points = env.robot_spec.workspace.sample(np.random.default_rng(1), 20)
     before = env.stereo.project(points)
     centres = np.concatenate([c.center for c in env.stereo.cameras])  # (4,)
     env.perturb({"zoom": 1.05})

@@ -42,7 +42,7 @@ def puma() -> ReachEnv:
 def points_around(env: ReachEnv, n: int, seed: int) -> np.ndarray:
     """World points (n, 3): most in the workspace, some far outside and behind the cameras."""
     rng = np.random.default_rng(seed)
-    inside = env.spec_robot.workspace.sample(rng, n - n // 4)
+    inside = env.robot_spec.workspace.sample(rng, n - n // 4)
     outside = rng.uniform(-6.0, 6.0, (n // 4, 3))
     cameras = np.array([c.position for c in env.stereo.cameras])
     return np.concatenate([inside, outside, cameras])  # the camera centres: depth 0
@@ -80,8 +80,8 @@ def test_sight_kernel_is_the_numpy_path_bit_for_bit(puma, monkeypatch):
 def test_goal_distances_are_those_of_the_points_seen(puma, monkeypatch):
     stereo = puma.stereo
     rng = np.random.default_rng(3)
-    achieved_points = puma.spec_robot.workspace.sample(rng, 300)
-    desired_points = puma.spec_robot.workspace.sample(rng, 300)
+    achieved_points = puma.robot_spec.workspace.sample(rng, 300)
+    desired_points = puma.robot_spec.workspace.sample(rng, 300)
     achieved, desired = stereo.project(achieved_points).T, stereo.project(desired_points).T
     goals = GoalPoints(tuple(camera_floats(c) for c in stereo.cameras), stereo.camera_rows)
     truth = np.linalg.norm(achieved_points - desired_points, axis=1)

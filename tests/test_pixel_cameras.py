@@ -65,7 +65,7 @@ def test_the_pixel_cameras_frame_markers_and_targets_with_a_margin(env_id):
     points = np.concatenate(
         [
             sensed_points(base, random_joints(base, rng, 300)),
-            base.spec_robot.workspace.sample(rng, 300),
+            base.robot_spec.workspace.sample(rng, 300),
         ]
     )
     half = (SIZE - 1) / 2

@@ -55,7 +55,7 @@ def _episode(env: ReachEnv, seed: int, hide_marker: bool):
     out = [(obs, None, info)]
     for i, command in enumerate(_commands(env, seed)):
         if hide_marker and i == 1:  # the cameras never draw group 5: nothing green to find
-            env.model.geom_group[env.model.geom(env.spec_robot.markers[env.joints]).id] = 5
+            env.model.geom_group[env.model.geom(env.robot_spec.markers[env.joints]).id] = 5
         obs, reward, _, _, info = env.step(command)
         out.append((obs, reward, info))
     return out

@@ -244,7 +244,7 @@ def test_the_throwaway_robot_is_a_model_with_kinematics(planar):
 def test_the_env_is_registered_and_moves_the_arm_its_kinematics_say(planar):
     env = gym.make(ENV_ID, sensing="project", control="kinematic")
     base = env.unwrapped
-    assert base.robot == NAME and base.joints == 2 and base.spec_robot is planar
+    assert base.robot == NAME and base.joints == 2 and base.robot_spec is planar
     obs, info = env.reset(seed=0)
     target = info["target_pos"]
     assert planar.workspace.contains(target[None])[0]

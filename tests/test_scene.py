@@ -117,7 +117,7 @@ def test_project_sensor_is_the_exact_projection_inside_the_images(robot):
     rng = np.random.default_rng(5)
     seen = 0
     for q in _poses(env, 40, seed=6):
-        env.data.mocap_pos[0] = env.spec_robot.workspace.sample(rng, 1)[0]
+        env.data.mocap_pos[0] = env.robot_spec.workspace.sample(rng, 1)[0]
         env.set_joints(q)
         for (pixels, visible), point in (
             (sensor.sense_target(env.data), env.data.mocap_pos[0]),

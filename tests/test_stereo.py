@@ -220,7 +220,7 @@ def test_a_larger_image_scales_the_pinhole_and_renders_it(robot):
     of view unchanged; rendered sensing still agrees with the projection."""
     small = ReachEnv(robot=robot, sensing="render", control="kinematic")
     large = ReachEnv(robot=robot, sensing="render", control="kinematic", width=640, height=480)
-    points = small.spec_robot.workspace.sample(np.random.default_rng(7), 50)
+    points = small.robot_spec.workspace.sample(np.random.default_rng(7), 50)
     np.testing.assert_allclose(
         large.stereo.project(points), 2 * small.stereo.project(points) + 0.5, atol=1e-9
     )
@@ -252,7 +252,7 @@ def test_coarse_floor_grid_senses_the_same(monkeypatch):
             fine = gym.make(env_id, sensing="foveated", control="kinematic").unwrapped
         rng = np.random.default_rng(11)
         for _ in range(40):
-            target = fine.spec_robot.workspace.sample(rng, 1)[0]
+            target = fine.robot_spec.workspace.sample(rng, 1)[0]
             q = rng.uniform(fine.joint_lower, fine.joint_upper)
             seen = []
             for env in (fine, coarse):

@@ -18,7 +18,7 @@ def exact_move(env: gym.Env) -> np.ndarray:
     base = env.unwrapped
     if hasattr(base, "target_joints"):
         return base.target_joints.copy()
-    return base.spec_robot.workspace.ik(base.data.mocap_pos[base.target_mocap_id][None])[0]
+    return base.robot_spec.workspace.ik(base.data.mocap_pos[base.target_mocap_id][None])[0]
 
 
 @pytest.mark.parametrize("env_id", ["RiacsReach-v0", "PumaGrasp-v0"])

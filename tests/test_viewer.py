@@ -165,7 +165,7 @@ def test_the_window_opens_framed_on_base_and_target(env_id: str) -> None:
         assert isinstance(robot, ReachEnv)
         model, data = robot.model, robot.data
         camera = mujoco.MjvCamera()
-        scene = frame_points(model, data, robot.spec_robot.workspace)  # arm, workspace, targets
+        scene = frame_points(model, data, robot.robot_spec.workspace)  # arm, workspace, targets
         frame_scene(camera, model, scene)
         base = data.xpos[model.body_rootid[model.jnt_bodyid[0]]]  # the arm's root body
         shown = window_image(model, camera, np.vstack([base, data.mocap_pos, scene]))

@@ -46,7 +46,7 @@ class ArmScene(Protocol):
     joint_lower: np.ndarray
     joint_upper: np.ndarray
     stereo: CameraPair
-    spec_robot: Any  # envs.robots.RobotSpec: its workspace
+    robot_spec: Any  # envs.robots.RobotSpec: its workspace
 
     def set_joints(self, q: np.ndarray, data: mujoco.MjData | None = None) -> None: ...
 
@@ -79,7 +79,7 @@ def frame_points(
     joint vectors and ``samples`` targets drawn from the robot's workspace (seeded)."""
     rng = np.random.default_rng(seed)
     reached = sensed_points(scene, random_joints(scene, rng, samples))
-    return np.concatenate([reached, scene.spec_robot.workspace.sample(rng, samples)])
+    return np.concatenate([reached, scene.robot_spec.workspace.sample(rng, samples)])
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ class Moves:
         """``n`` moves: joints uniform in the controlled joints' ranges, targets from the
         robot's workspace, both from ``rng``."""
         joints = random_joints(env, rng, n)
-        targets = env.spec_robot.workspace.sample(rng, n) + env.perturbation.base_shift
+        targets = env.robot_spec.workspace.sample(rng, n) + env.perturbation.base_shift
         return cls(joints, sensed_points(env, joints), targets)
 
 
