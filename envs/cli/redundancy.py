@@ -35,12 +35,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     options.TARGETS.add(p)
     options.FINE_MOVES.add(p)
-    options.SEED.add(
-        p,
-        default=DEFAULT_SEED,
-        help="the evaluation set: held-out targets of the evaluation stream (default: "
-        "%(default)s, evaluate.py's)",
-    )
+    options.EVALUATION_SET.add(p, default=DEFAULT_SEED)
     options.OUT.add(p, help="default: RUN/redundancy")
     args = p.parse_args(argv)
     if args.out is not None:
