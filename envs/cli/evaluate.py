@@ -70,7 +70,12 @@ def main(argv: list[str] | None = None) -> dict:
     options.ORIENTATIONS.add(p, note="default: the run's, else the env's")
     options.TARGETS.add(p)
     options.FINE_MOVES.add(p)
-    options.EVALUATION_SET.add(p, default=DEFAULT_SEED)
+    options.SEED.add(
+        p,
+        default=DEFAULT_SEED,
+        help="the evaluation set: held-out targets of the evaluation stream, which no training "
+        "run draws for any seed (default: %(default)s)",
+    )
     options.OUT.add(p, help="default: RUN/eval or runs/eval")
     p.add_argument("--no-plots", action="store_true")
     options.PROTOCOL.add(p, help="how a SOM moves (default: the protocol it was trained with)")

@@ -99,16 +99,6 @@ CONTROL = ModeOption(
     {"servo": "the position actuators, simulated", "kinematic": "the joints set at once"},
 )
 SEED = Option("--seed", {"type": cli.seed, "default": 0, "help": "random seed"})
-#: ``--seed`` of a program that evaluates: it names an evaluation set, not a training seed.
-EVALUATION_SET = Option(
-    "--seed",
-    {
-        "type": cli.seed,
-        "default": 0,
-        "help": "the evaluation set: held-out targets of the evaluation stream, which no "
-        "training run draws for any seed (default: %(default)s)",
-    },
-)
 #: A program that writes one file (a video, a figure) adds it with ``type=cli.out_file``.
 OUT = Option("--out", {"type": cli.out_folder, "help": "output folder"})
 JSON = Option(

@@ -35,7 +35,12 @@ def main(argv: list[str] | None = None) -> dict:
     )
     options.TARGETS.add(p)
     options.FINE_MOVES.add(p)
-    options.EVALUATION_SET.add(p, default=DEFAULT_SEED)
+    options.SEED.add(
+        p,
+        default=DEFAULT_SEED,
+        help="the evaluation set: held-out targets of the evaluation stream (default: "
+        "%(default)s, evaluate.py's)",
+    )
     options.OUT.add(p, help="default: RUN/redundancy")
     args = p.parse_args(argv)
     if args.out is not None:
