@@ -11,7 +11,6 @@ import numpy as np
 from envs import arguments
 from envs.pose_reward import pose_reward_terms
 from envs.reach import PIXELS_HEIGHT, PIXELS_WIDTH, SUCCESS_THRESHOLD, ReachEnv
-from envs.reward import seen_flags
 from envs.robots import MarkerSet, grasp_env_ids, robot_spec
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH
 from envs.sensing.rendering import GROUP_MARKER, GROUP_ROBOT
@@ -306,18 +305,11 @@ class GraspEnv(ReachEnv):
                     return True
         return False
 
-    def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, ...]:
+    def _pixel_reward_terms(self, achieved: np.ndarray, desired: np.ndarray, seen) -> tuple:
         """(reward_distance, reward_orientation, reward_unseen) through
         :func:`envs.pose_reward.pose_reward_terms`."""
-        shape, a_q, d_q = self._goal_coordinates(achieved_goal, desired_goal)
-        return pose_reward_terms(
-            self.goal_points.cameras,
-            a_q,
-            d_q,
-            seen_flags(info, shape),
-            self.reach,
-            ORIENTATION_WEIGHT,
-        )
+        cameras = self.goal_points.cameras
+        return pose_reward_terms(cameras, achieved, desired, seen, self.reach, ORIENTATION_WEIGHT)
 
     def target_pose(self) -> np.ndarray:
         """World pose (4, 4) of the object (ground truth)."""
@@ -333,8 +325,9 @@ class GraspEnv(ReachEnv):
         pose[:3, 3] = self.data.site_xpos[self.sensed_site_id]
         return pose
 
-    def _info(self, clipped: bool, settle_time: float) -> StepInfo:
-        info = super()._info(clipped, settle_time)
+    def _info(self, reward_terms: tuple[Any, ...], clipped: bool, settle_time: float) -> StepInfo:
+        info = super()._info(reward_terms, clipped, settle_time)
+        info["reward_orientation"] = reward_terms[1]
         target, effector = self.target_pose(), self.effector_pose()
         error = float(orientation_angle(effector[:3, :3], target[:3, :3]))
         info["orientation_error"] = error

@@ -14,7 +14,7 @@ from envs import arguments
 from envs.composite import CompositeView
 from envs.kernels import clip_command
 from envs.perturb import Perturbation, PerturbationError, SceneEditor, random_sizes
-from envs.reward import GoalPoints, reward_terms, seen_flags
+from envs.reward import GoalPoints, reward_terms, seen_flags, total_reward
 from envs.robots import MarkerSet, RobotSpec, reach_env_ids, robot_spec
 from envs.scene import IMAGE_HEIGHT, IMAGE_WIDTH, ArmScene, as_slice
 from envs.sensing import pinhole_kernels
@@ -338,8 +338,7 @@ class ReachEnv(ArmScene):
         self._sense_target()
         self._sense_effector()
         observation = self._observation()
-        info = self._info(clipped=False, settle_time=0.0)
-        self._reward(observation, info)
+        info = self._info(self._observed_reward_terms(observation), clipped=False, settle_time=0.0)
         if self.render_mode == "human":
             self.render()
         return observation, info
@@ -350,8 +349,9 @@ class ReachEnv(ArmScene):
         settle_time = self._move(command)
         self._sense_effector()
         observation = self._observation()
-        info = self._info(clipped=clipped, settle_time=settle_time)
-        reward = self._reward(observation, info)
+        terms = self._observed_reward_terms(observation)
+        info = self._info(terms, clipped=clipped, settle_time=settle_time)
+        reward = total_reward(terms)
         if self.render_mode == "human":
             self.render()
         terminated = self.terminate_on_success and info["is_success"]
@@ -367,11 +367,7 @@ class ReachEnv(ArmScene):
         them), or None (every effector marker taken as seen). A float for one pair of goals, an
         array of the batch shape otherwise; bit-identical to the step's reward for its goals.
         """
-        terms = self._reward_terms(achieved_goal, desired_goal, info)
-        total = terms[0]
-        for term in terms[1:]:
-            total = total + term
-        return total
+        return total_reward(self._reward_terms(achieved_goal, desired_goal, info))
 
     def _goal_coordinates(
         self, achieved_goal, desired_goal
@@ -402,10 +398,15 @@ class ReachEnv(ArmScene):
     REWARD_TERMS: ClassVar[tuple[str, ...]] = ("reward_distance", "reward_unseen")
 
     def _reward_terms(self, achieved_goal, desired_goal, info: Any) -> tuple[Any, ...]:
-        """The reward's terms (:attr:`REWARD_TERMS`): (reward_distance, reward_unseen) through
-        :func:`envs.reward.reward_terms`."""
+        """The reward's terms (:attr:`REWARD_TERMS`) of goals as observed, ``info`` as HER
+        passes it: the goals in pixels, then :meth:`_pixel_reward_terms`."""
         shape, a_q, d_q = self._goal_coordinates(achieved_goal, desired_goal)
-        return reward_terms(self.goal_points, a_q, d_q, seen_flags(info, shape), self.reach)
+        return self._pixel_reward_terms(a_q, d_q, seen_flags(info, shape))
+
+    def _pixel_reward_terms(self, achieved: np.ndarray, desired: np.ndarray, seen) -> tuple:
+        """(reward_distance, reward_unseen) of goals (G, *shape) px through
+        :func:`envs.reward.reward_terms`; ``seen``: bool, or a bool array of the batch shape."""
+        return reward_terms(self.goal_points, achieved, desired, seen, self.reach)
 
     @property
     def goal_points(self) -> GoalPoints:
@@ -417,15 +418,16 @@ class ReachEnv(ArmScene):
             self._goal_points = GoalPoints(cameras, self.stereo.camera_rows)
         return self._goal_points
 
-    def _reward(self, observation: dict[str, np.ndarray], info: dict[str, Any]) -> float:
-        """The reward of a transition; puts its terms into ``info``."""
-        terms = self._reward_terms(observation["achieved_goal"], observation["desired_goal"], info)
-        for key, term in zip(self.REWARD_TERMS, terms, strict=True):
-            info[key] = term
-        total = terms[0]
-        for term in terms[1:]:
-            total = total + term
-        return total
+    def _observed_reward_terms(self, observation: dict[str, np.ndarray]) -> tuple[Any, ...]:
+        """The reward's terms of the transition just observed. Its goals are the pixels the
+        observation was made from, so only normalised goals are mapped back (the same bits as
+        ``compute_reward`` on the observation's goals and ``info``)."""
+        achieved, desired = self._last["effector"], self._last["target"]
+        if self.normalize:
+            _, achieved, desired = self._goal_coordinates(
+                observation["achieved_goal"], observation["desired_goal"]
+            )
+        return self._pixel_reward_terms(achieved, desired, all(self._visible_effector.tolist()))
 
     def render(self) -> np.ndarray | None:
         if self.render_mode == "human":
@@ -743,12 +745,20 @@ class ReachEnv(ArmScene):
         }
         self.observation_space = gym.spaces.Dict({k: spaces[k] for k in OBS_MODES[self.obs_mode]})
 
-    def _info(self, clipped: bool, settle_time: float) -> StepInfo:
-        target = self.data.mocap_pos[self.target_mocap_id].copy()
-        effector = self.sensed_point()
+    def _info(self, reward_terms: tuple[Any, ...], clipped: bool, settle_time: float) -> StepInfo:
+        """The transition's ``info``; ``reward_terms`` in :attr:`REWARD_TERMS`' order, whose
+        first is the distance's and last the unseen marker's (a task adds the others)."""
+        data = self.data
+        target, effector = (
+            data.mocap_pos[self._target_mocap].copy(),
+            data.site_xpos[self._site].copy(),
+        )
         distance = math.dist(target.tolist(), effector.tolist())
-        du_dv = (self._last["effector"] - self._last["target"]).tolist()
-        image_errors = list(map(math.hypot, du_dv[::2], du_dv[1::2]))  # per camera and marker
+        achieved, desired = self._last["effector"].tolist(), self._last["target"].tolist()
+        image_errors = [  # px, per camera and marker
+            math.hypot(achieved[k] - desired[k], achieved[k + 1] - desired[k + 1])
+            for k in range(0, len(achieved), 2)
+        ]
         return StepInfo(
             distance=distance,
             pixel_error=sum(image_errors) / len(image_errors),
@@ -760,4 +770,6 @@ class ReachEnv(ArmScene):
             effector_pos=effector,
             clipped=clipped,
             settle_time=settle_time,
+            reward_distance=reward_terms[0],
+            reward_unseen=reward_terms[-1],
         )

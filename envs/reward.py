@@ -100,3 +100,11 @@ def reward_terms(
     if isinstance(seen, bool):  # one transition
         return -float(distance[0]), 0.0 if seen else -float(penalty)
     return -distance.reshape(shape), np.where(seen, 0.0, -penalty)
+
+
+def total_reward(terms: tuple[Any, ...]) -> Any:
+    """The reward: its terms added in order (floats, or arrays of one batch shape)."""
+    total = terms[0]
+    for term in terms[1:]:
+        total = total + term
+    return total

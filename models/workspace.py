@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import operator
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -139,4 +138,7 @@ def _round_size(missing: int) -> int:
 
 def _inside(values, lower: list[float], upper: list[float]) -> bool:
     """lower ≤ values ≤ upper in every entry (False for NaN, like the array comparisons)."""
-    return all(map(operator.le, lower, values)) and all(map(operator.le, values, upper))
+    for low, value, high in zip(lower, values, upper, strict=True):
+        if not low <= value <= high:
+            return False
+    return True

@@ -44,9 +44,6 @@ from envs.studies.evaluation_report import format_pose_table, format_table, som_
 from learners.som.controller import VisuomotorSOM
 from learners.som.hierarchical import HierarchicalSOM
 
-#: The evaluation set (of the evaluation stream, envs.harness.streams) unless told otherwise.
-DEFAULT_SEED = 0
-
 
 def main(argv: list[str] | None = None) -> dict:
     p = cli.parser(__doc__)
@@ -70,12 +67,7 @@ def main(argv: list[str] | None = None) -> dict:
     options.ORIENTATIONS.add(p, note="default: the run's, else the env's")
     options.TARGETS.add(p)
     options.FINE_MOVES.add(p)
-    options.SEED.add(
-        p,
-        default=DEFAULT_SEED,
-        help="the evaluation set: held-out targets of the evaluation stream, which no training "
-        "run draws for any seed (default: %(default)s)",
-    )
+    options.EVALUATION_SET.add(p)
     options.OUT.add(p, help="default: RUN/eval or runs/eval")
     p.add_argument("--no-plots", action="store_true")
     options.PROTOCOL.add(p, help="how a SOM moves (default: the protocol it was trained with)")

@@ -18,6 +18,7 @@ from envs.cli import options
 from envs.harness.run_folder import write_json
 from envs.robots import reach_env_ids
 from envs.studies.framing import markdown, observation_row, study
+from learners.persistence import write_atomic
 
 SHEET_SCALE = 3  # screen pixels per observation pixel in the sheet
 
@@ -44,7 +45,8 @@ def main(argv: list[str] | None = None) -> dict:
         env.close()
     print(markdown(results))
     if args.sheet is not None:
-        cv2.imwrite(str(args.sheet), cv2.cvtColor(np.concatenate(rows), cv2.COLOR_RGB2BGR))
+        _, png = cv2.imencode(".png", np.concatenate(rows)[..., ::-1])  # imwrite hides a failure
+        write_atomic(args.sheet, lambda f: f.write(png.tobytes()))
     if args.json is not None:
         write_json(args.json, results)
     return results

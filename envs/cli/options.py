@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import inspect
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from envs.cli import common as cli
@@ -51,6 +51,11 @@ class Option:
         if note is not None:
             settings["help"] = f"{settings['help']}; {note}" if settings.get("help") else note
         return parser.add_argument(self.flag, **settings)
+
+    def varied(self, **settings: Any) -> Option:
+        """The same flag with some settings replaced: a shared variant (one help for the
+        programs that give the flag the same meaning)."""
+        return replace(self, settings={**self.settings, **settings})
 
 
 @dataclass(frozen=True)
@@ -99,6 +104,12 @@ CONTROL = ModeOption(
     {"servo": "the position actuators, simulated", "kinematic": "the joints set at once"},
 )
 SEED = Option("--seed", {"type": cli.seed, "default": 0, "help": "random seed"})
+#: ``--seed`` of a program that evaluates: it names an evaluation set of the evaluation stream
+#: (``envs.harness.streams``), not a training seed.
+EVALUATION_SET = SEED.varied(
+    help="the evaluation set: held-out targets of the evaluation stream, which no training run "
+    "draws for any seed (default: %(default)s)"
+)
 #: A program that writes one file (a video, a figure) adds it with ``type=cli.out_file``.
 OUT = Option("--out", {"type": cli.out_folder, "help": "output folder"})
 JSON = Option(

@@ -19,7 +19,6 @@ import envs  # noqa: F401  (registers the envs, chooses the GL back-end)
 from envs.cli import common as cli
 from envs.cli import options
 from envs.cli.controllers import run_folder
-from envs.cli.evaluate import DEFAULT_SEED
 from envs.harness.run_folder import write_json
 from envs.studies import redundancy_plot
 from envs.studies.redundancy import RedundancyError, measure
@@ -35,12 +34,7 @@ def main(argv: list[str] | None = None) -> dict:
     )
     options.TARGETS.add(p)
     options.FINE_MOVES.add(p)
-    options.SEED.add(
-        p,
-        default=DEFAULT_SEED,
-        help="the evaluation set: held-out targets of the evaluation stream (default: "
-        "%(default)s, evaluate.py's)",
-    )
+    options.EVALUATION_SET.add(p)
     options.OUT.add(p, help="default: RUN/redundancy")
     args = p.parse_args(argv)
     if args.out is not None:
