@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import signal
+import socket
 
 import numpy as np
 import pytest
@@ -158,6 +159,28 @@ def test_an_address_mistake_is_one_line_with_status_2_and_creates_nothing(
     result = run_script(name, *args, "--out", "run", cwd=tmp_path, env=env, timeout=120)
     line = one_line_error(result)
     assert named in line, line
+    assert not (tmp_path / "run").exists()
+
+
+def _closed_port() -> int:
+    """A port of this machine on which nothing listens (one the system just handed out)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.mark.parametrize("hidden", [False, True])
+@pytest.mark.parametrize("name", ["train", "sweep"])
+def test_an_address_where_no_head_answers_is_one_line_and_creates_nothing(name, hidden, tmp_path):
+    """Where ``ray.init`` would wait without end (nothing listens at the head's port), the run
+    is refused before any work, Ray installed (if it is here) or not."""
+    address = f"127.0.0.1:{_closed_port()}"
+    args = ["--workers", "2"] if name == "train" else ["--grid", "robot=riacs"]
+    env = _without_ray(tmp_path / "hidden") if hidden else None
+    result = run_script(name, *args, "--address", address, "--out", "run", cwd=tmp_path,
+                        env=env, timeout=120)  # fmt: skip
+    line = one_line_error(result)
+    assert f"no Ray head answers at {address}" in line, line
     assert not (tmp_path / "run").exists()
 
 

@@ -1,11 +1,13 @@
-"""Ray for the sweeps' cells and the training runs' workers: an address checked, Ray imported
-(the extra ``sweep``; a :class:`RayUnavailableError` without it), and a cluster joined or a
-local instance started. Nothing here imports Ray until it is called."""
+"""Ray for the sweeps' cells and the training runs' workers: an address checked (its form, and
+that a head answers there), Ray imported (the extra ``sweep``; a :class:`RayUnavailableError`
+without it), and a cluster joined or a local instance started. Nothing here imports Ray until it
+is called."""
 
 from __future__ import annotations
 
 import os
 import re
+import socket
 from types import ModuleType
 
 #: The address of a new Ray instance on this machine (``ray.init(address="local")``).
@@ -19,6 +21,9 @@ ADDRESS_FORMS = f"{AUTO}, {LOCAL} or HOST:PORT (a Ray head)"
 HEAD = re.compile(r"(ray://)?[A-Za-z0-9._\-\[\]]+:(\d{1,5})")
 #: The interface of every service of a local instance.
 LOOPBACK = "127.0.0.1"
+#: s a head's port has to accept a connection: ``ray.init`` itself waits for an absent head
+#: without end.
+CONNECT_SECONDS = 10.0
 #: How to get Ray.
 INSTALL = 'pip install ".[sweep]" (make .venv/.sweep in a checkout)'
 
@@ -40,6 +45,22 @@ def check_address(text: str) -> str:
     raise AddressError(f"{text!r} is not a Ray address; give {ADDRESS_FORMS}")
 
 
+def check_reachable(address: str) -> None:
+    """For a head's address (``HOST:PORT``), RayUnavailableError unless its port accepts a
+    connection within CONNECT_SECONDS; ``auto`` and ``local`` are Ray's to find or start."""
+    head = HEAD.fullmatch(address)
+    if head is None:
+        return
+    host = address.removeprefix("ray://").rsplit(":", 1)[0].strip("[]")
+    try:
+        socket.create_connection((host, int(head.group(2))), timeout=CONNECT_SECONDS).close()
+    except OSError as exc:
+        raise RayUnavailableError(
+            f"no Ray head answers at {address} ({exc.strerror or exc}); start one there "
+            "(ray start --head --port=PORT) or give the address of a running head"
+        ) from None
+
+
 def need_ray(what: str) -> ModuleType:
     """The ``ray`` module; :class:`RayUnavailableError` saying that ``what`` needs it and how
     to install it if it is missing."""
@@ -54,9 +75,12 @@ def start_ray(address: str | None, num_cpus: int) -> None:
     """Connect to the cluster at ``address``, or (None or ``local``) start a local instance on
     the loopback interface with ``num_cpus`` CPUs, no dashboard and no usage reporting.
     ``MUJOCO_GL`` is passed on to Ray's workers, which run one BLAS thread each. (Callers
-    check first with :func:`need_ray` that Ray is installed.)"""
+    check first with :func:`need_ray` that Ray is installed.) RayUnavailableError if no head
+    answers at ``address`` (:func:`check_reachable`)."""
     import ray
 
+    if address is not None:
+        check_reachable(address)
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
     env_vars = {
         "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),

@@ -19,6 +19,7 @@ from envs.harness.ray_cluster import (
     AddressError,
     RayUnavailableError,
     check_address,
+    check_reachable,
     need_ray,
     start_ray,
 )
@@ -53,7 +54,7 @@ class RayPool(RoundPool):
 
     Raises:
         AddressError: ``address`` is not a Ray address.
-        RayUnavailableError: Ray is not installed.
+        RayUnavailableError: Ray is not installed, or no head answers at ``address``.
     """
 
     errors_shown = "see the Ray workers' logs (/tmp/ray/session_latest/logs)"
@@ -111,12 +112,13 @@ def ray_pools(address: str, workers: int) -> Callable[[Any, int], RayPool]:
     """The pools of a run of ``workers`` workers as Ray actors at ``address`` (what
     ``Trainer.make_pool`` takes), checked before any work: AddressError if ``address`` is not a
     Ray address or ``workers`` < 2 (one worker is the one-process training), RayUnavailableError
-    if Ray is not installed."""
+    if no head answers at it or Ray is not installed."""
     check_address(address)
     if workers < 2:
         raise AddressError(
             f"address {address!r} runs the workers as Ray actors, but the run has {workers} "
             "worker; take 2 or more workers, or leave out the address"
         )
+    check_reachable(address)
     need_ray(WHAT)
     return functools.partial(RayPool, address=address)

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from envs.harness.ray_cluster import need_ray, start_ray
+from envs.harness.ray_cluster import check_reachable, need_ray, start_ray
 from envs.harness.run_folder import write_json
 from envs.harness.training import RunConfig
 from envs.studies.sweep_grid import CELL_FILE, PROGRESS_FILE, cell_name, neurons, run_cell
@@ -49,6 +49,8 @@ def run_sweep(
 
     Returns the rows of the finished cells, in the order of ``configs``.
     """
+    if address is not None:
+        check_reachable(address)  # before anything: ray.init would wait for an absent head
     ray = need_ray("a sweep")
 
     cells = Path(out) / "cells"
