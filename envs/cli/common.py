@@ -13,7 +13,7 @@ import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import NoReturn, TypeVar
+from typing import Any, NoReturn, TypeVar
 
 from tqdm import tqdm
 
@@ -331,12 +331,19 @@ def run(main: Callable[[], object]) -> None:
         fail(str(exc))
     except KeyboardInterrupt:
         _say("interrupted (Ctrl-C); outputs not finished were not kept")
+        # An object the interrupt left half-built (numba's LLVM pass manager while it compiled)
+        # fails in its finalizer at exit; that message would follow the one line.
+        sys.unraisablehook = _ignore_after_interrupt
         raise SystemExit(INTERRUPTED) from None
     except OSError as exc:
         error = output_error(exc, "the output")
         if error is None:
             raise
         fail(str(error))
+
+
+def _ignore_after_interrupt(unraisable: Any) -> None:
+    """``sys.unraisablehook`` of a program ending on Ctrl-C: errors in finalizers are dropped."""
 
 
 def entry_point(main: Callable[[], object]) -> Callable[[], None]:
