@@ -463,6 +463,13 @@ class ReachEnv(ArmScene):
         target = self.robot_spec.workspace.sample_one(self.np_random)
         return target + self.perturbation.base_shift, None
 
+    def skip_targets(self, count: int) -> None:
+        """Draw and drop the next ``count`` targets that ``reset`` would draw: ``np_random``
+        ends where ``count`` resets leave it, and nothing else changes (a worker that evaluates
+        trials k.. of a held-out stream starts where one evaluating them all would be)."""
+        for _ in range(count):
+            self._draw_target()
+
     def close(self) -> None:
         super().close()
         self._view.close()

@@ -664,6 +664,28 @@ def test_fork_after_rendering_fails_fast_or_works(tmp_path):
     assert returncode == 0 or "forkserver" in output, output[-2000:]
 
 
+@pytest.mark.parametrize("env_id", ["RiacsReach-v0", "PumaReach-v0", "PumaGrasp-v0"])
+def test_skipping_targets_leaves_the_generator_where_resets_leave_it(env_id):
+    """skip_targets(k) then a reset draws the target (and object pose) of the (k+1)-th reset,
+    and the arm stays where it was."""
+    walked = gym.make(env_id, sensing="project", control="kinematic")
+    skipped = gym.make(env_id, sensing="project", control="kinematic")
+    walked.reset(seed=4)
+    skipped.reset(seed=4)
+    for k in (0, 1, 5):
+        for _ in range(k):
+            walked.reset()
+        qpos = skipped.unwrapped.data.qpos.copy()
+        skipped.unwrapped.skip_targets(k)
+        np.testing.assert_array_equal(skipped.unwrapped.data.qpos, qpos)
+        a, b = walked.reset()[1], skipped.reset()[1]
+        np.testing.assert_array_equal(a["target_pos"], b["target_pos"])
+        if "target_pose" in a:
+            np.testing.assert_array_equal(a["target_pose"], b["target_pose"])
+    walked.close()
+    skipped.close()
+
+
 @pytest.mark.parametrize("env_id", [*reach_env_ids(), *grasp_env_ids()])
 def test_every_registered_env_pickles_with_its_robot_model(env_id):
     """What ``AsyncVectorEnv`` does to an env made by ``gym.make``: the copy, robot model and

@@ -6,6 +6,7 @@ mid-round, and after SIGKILL, SIGTERM and SIGINT of a real ``train.py`` at rando
 
 from __future__ import annotations
 
+import json
 import os
 import pickle
 import signal
@@ -16,9 +17,17 @@ import pytest
 
 import envs  # noqa: F401  (GL back-end before mujoco)
 from envs.cli import train
+from envs.harness.evaluation import evaluate
 from envs.harness.training import RunConfig, Trainer, initial_map
 from envs.harness.trials import learn_from, run_trial
-from envs.harness.workers import ROUND_TRIALS, InProcessPool, round_end, shares, trial_rngs
+from envs.harness.workers import (
+    ROUND_TRIALS,
+    InProcessPool,
+    WorkerPool,
+    round_end,
+    shares,
+    trial_rngs,
+)
 from envs.limits import MAX_WORKERS
 
 #: A small run: the default sensing (projection) and control (kinematic), a tiny lattice.
@@ -137,6 +146,37 @@ def test_workers_give_the_map_of_rounds_for_every_n_and_run(tmp_path):
     assert first.running == second.running
     plain = _trained(tmp_path, "plain", workers=1)
     assert not np.array_equal(plain.som.learned.theta, first.som.learned.theta)
+
+
+def _one_process_row(config, som):
+    """The held-out summary of ``som`` evaluated in one process, as a run of one worker does."""
+    env = config.make_env("evaluation")
+    summary = evaluate(env, pickle.loads(pickle.dumps(som)), config.eval_trials,
+                       config.fine_moves).summary()  # fmt: skip
+    env.close()
+    del summary["microseconds_per_query"]
+    return summary
+
+
+@pytest.mark.parametrize("pool", [WorkerPool, InProcessPool])
+def test_workers_evaluate_as_one_process_does(tmp_path, pool):
+    """The workers share out the held-out evaluations (11 targets: uneven shares, the second
+    starting in the middle of the stream); each row is the one-process evaluation's, before
+    training and after."""
+    config = RunConfig.of(**(SMALL | {"workers": 2, "trials": 200, "eval_trials": 11}))
+    trainer = Trainer(config, tmp_path / "run")
+    trainer.make_pool = pool
+    try:
+        untrained = _one_process_row(config, trainer.som)
+        assert {k: v for k, v in trainer.held_out().items() if k in untrained} == untrained
+        assert len(trainer.pool.pids) == (2 if pool is WorkerPool else 1)  # shared out
+        trainer.run()
+        trained = _one_process_row(config, trainer.som)
+        assert {k: v for k, v in trainer.held_out().items() if k in trained} == trained
+    finally:
+        trainer.close()
+    rows = (tmp_path / "run" / "metrics.jsonl").read_text().splitlines()
+    assert {k: v for k, v in json.loads(rows[-1]).items() if k in trained} == trained
 
 
 def test_a_worker_killed_mid_round_is_started_again_and_the_round_redone(tmp_path):

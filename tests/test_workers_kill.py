@@ -14,11 +14,11 @@ import time
 import numpy as np
 from test_kill import SOAK, _command, _contents, _env, _working
 
-#: Projection and servo moves, a held-out evaluation every 128 trials: rounds of 128 trials, a few
-#: tenths of a second each.
-OPTIONS = ["--workers", "2", "--control", "servo", "--trials", "512", "--eval-every", "128",
-           "--eval-trials", "10"]  # fmt: skip
 SIGNALS = 30 if SOAK else 3
+#: Projection and servo moves, a held-out evaluation every 128 trials: rounds of 128 trials, a few
+#: tenths of a second each; the soak's run long enough for its signals.
+OPTIONS = ["--workers", "2", "--control", "servo", "--trials", "4096" if SOAK else "512",
+           "--eval-every", "128", "--eval-trials", "10"]  # fmt: skip
 #: SIGKILL twice as often as each stop signal: it leaves the workers without their learner.
 KINDS = (signal.SIGKILL, signal.SIGKILL, signal.SIGTERM, signal.SIGINT)
 #: s: a signal falls uniformly within this time after the process's first round was saved.

@@ -12,7 +12,7 @@ carried forward the same way.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -173,33 +173,37 @@ def carried_orientation(trial: Trial, moves: int) -> np.ndarray:
 def evaluate(env, controller: Controller, trials: int, fine_moves: int = 2) -> Evaluation:
     """Run ``trials`` trials (targets from the env's own seeded generator; the caller seeds it
     with ``env.reset(seed=...)``) without learning."""
-    moves = fine_moves + 1
-    distances = np.zeros((trials, moves))
-    pixels = np.zeros((trials, moves))
-    targets = np.zeros((trials, 3))
-    reached = np.zeros((trials, 3))
-    made = np.zeros(trials, dtype=int)
-    recoveries = np.zeros(trials, dtype=int)
-    orientation = np.zeros((trials, moves))
-    pose = False  # the env reports the hand's orientation
     timed = _TimedController(controller)
-    for i in range(trials):
-        trial = run_trial(env, timed, fine_moves)
+    runs = [run_trial(env, timed, fine_moves) for _ in range(trials)]
+    seconds_per_query = timed.seconds / max(timed.calls, 1)
+    return evaluation_of(
+        runs, fine_moves, env.unwrapped.reach, seconds_per_query, controller.recovers
+    )
+
+
+def evaluation_of(
+    trials: Sequence[Trial], fine_moves: int, reach: float, seconds_per_query: float, recovers: bool
+) -> Evaluation:
+    """The :class:`Evaluation` of ``trials`` made with ``fine_moves`` fine moves each, in order
+    (as :func:`evaluate` runs them, or workers their shares); ``recovers``: the controller's."""
+    moves = fine_moves + 1
+    n = len(trials)
+    distances, pixels, reached = np.zeros((n, moves)), np.zeros((n, moves)), np.zeros((n, 3))
+    orientation = np.zeros((n, moves))
+    pose = False  # the env reports the hand's orientation
+    for i, trial in enumerate(trials):
         distances[i], pixels[i], reached[i] = carried_forward(trial, moves)
-        targets[i] = trial.target_pos
-        made[i] = len(trial.distances)
-        recoveries[i] = trial.recovery_moves
         if np.isfinite(trial.start_orientation_error):
             pose = True
             orientation[i] = carried_orientation(trial, moves)
     return Evaluation(
         distances,
         pixels,
-        targets,
+        np.array([trial.target_pos for trial in trials]).reshape(n, 3),
         reached,
-        env.unwrapped.reach,
-        timed.seconds / max(timed.calls, 1),
-        made,
-        recoveries if controller.recovers else None,
+        reach,
+        seconds_per_query,
+        np.array([len(trial.distances) for trial in trials], dtype=int),
+        np.array([trial.recovery_moves for trial in trials], dtype=int) if recovers else None,
         orientation if pose else None,
     )

@@ -3,10 +3,10 @@ ADDR``): the rounds of :mod:`envs.harness.workers` with an actor per worker, on 
 local Ray instance, giving the same trials and so the same map as local worker processes.
 
 Each actor builds the run's env from its configuration at its first share and runs its shares
-with :func:`~envs.harness.workers.timed_collect`; each round it gets the map of the round's
-start. An actor that dies (killed, out of memory, its node lost) takes the round with it: new
-actors are started and the round redone, as the local workers are. Ray is imported when a pool
-is made (the extra ``sweep``).
+(a round's trials, or held-out trials of an evaluation: :data:`~envs.harness.workers.TASKS`);
+each time it gets the map as the learner has it. An actor that dies (killed, out of memory, its
+node lost) takes the round with it: new actors are started and the round redone, as the local
+workers are. Ray is imported when a pool is made (the extra ``sweep``).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from envs.harness.ray_cluster import (
     need_ray,
     start_ray,
 )
-from envs.harness.workers import POLL_SECONDS, RoundPool, Share, WorkerDied, timed_collect
+from envs.harness.workers import POLL_SECONDS, TASKS, RoundPool, Share, WorkerDied
 from learners.persistence import quoted
 
 #: What needs Ray, in the error when it is missing or its cluster cannot be reached.
@@ -37,13 +37,13 @@ class Collector:
         self.config = config
         self.env: Any = None
 
-    def collect(self, blob: bytes, seed: int, indices: range, pairs: int) -> Share:
-        """:func:`~envs.harness.workers.timed_collect` in this actor's env."""
+    def run(self, task: str, blob: bytes, seed: int, indices: range, moves: int) -> Share:
+        """``task`` of :data:`~envs.harness.workers.TASKS` in this actor's env."""
         if self.env is None:
             import envs  # noqa: F401  (registers the envs in this process)
 
             self.env = self.config.make_env()
-        return timed_collect(self.env, blob, seed, indices, pairs)
+        return TASKS[task](self.env, blob, seed, indices, moves)
 
 
 class RayPool(RoundPool):
@@ -76,12 +76,12 @@ class RayPool(RoundPool):
         return [self._actor.remote(self.config) for _ in range(self.workers)]
 
     def _run(
-        self, blob: bytes, parts: list[range], pairs: int, check: Callable[[], None]
+        self, task: str, blob: bytes, parts: list[range], moves: int, check: Callable[[], None]
     ) -> list[Share]:
         ray = self._ray
         shared = ray.put(blob)  # one copy in Ray's object store for all actors
         refs = [
-            actor.collect.remote(shared, self.config.seed, part, pairs)
+            actor.run.remote(task, shared, self.config.seed, part, moves)
             for actor, part in zip(self._actors, parts, strict=False)
         ]
         try:

@@ -6,6 +6,7 @@ a power cut, ``Trainer.resume`` gives the arrays, generator states and metrics o
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, fields, replace
@@ -31,7 +32,7 @@ from envs.harness.checkpoint import (
     unit_identity,
     write_unit,
 )
-from envs.harness.evaluation import Ticking, evaluate
+from envs.harness.evaluation import Ticking, evaluate, evaluation_of
 from envs.harness.ray_cluster import AddressError
 from envs.harness.ray_workers import ray_pools
 from envs.harness.run_folder import METRICS_FILE, RunFolder, check_metrics, truncate_metrics
@@ -627,16 +628,20 @@ class Trainer:
         while the workers run (it may raise to abandon the round, which leaves the map as it
         was: a resumed run redoes the round)."""
         config = self.config
-        if self.pool is None:
-            self.pool = self.make_pool(config, config.workers)
-            self.spent = self.pool.spent
         pairs = config.training_pairs or 1
         end = round_end(self.trial, config.trials, config.eval_every, self.round_trials)
-        trials = self.pool.collect(self.som, self.trial, end, pairs, check)
+        trials = self._workers().collect(self.som, self.trial, end, pairs, check)
         start = time.perf_counter()
         for trial in trials:
             self._learn(trial, pairs, stale=True)
         self.learner_seconds += time.perf_counter() - start
+
+    def _workers(self) -> RoundPool:
+        """The run's workers (``workers`` >= 2), started at their first task."""
+        if self.pool is None:
+            self.pool = self.make_pool(self.config, self.config.workers)
+            self.spent = self.pool.spent
+        return self.pool
 
     #: Trials of a round with workers (a constant of the code: a checkpoint does not store it).
     round_trials = ROUND_TRIALS
@@ -658,14 +663,23 @@ class Trainer:
 
     def held_out(self, check: Callable[[], object] | None = None) -> dict[str, Any]:
         """Evaluate on the fixed held-out targets (without learning); ``check`` is called
-        before every trial (it may raise to abandon the evaluation)."""
-        env = self.config.make_env("evaluation")
-        controller = self.som if check is None else Ticking(self.som, check)
-        try:
-            result = evaluate(env, controller, self.config.eval_trials, self.config.fine_moves)
-        finally:
-            env.close()
-            self.som.reset()
+        before every trial, or with workers while they run (it may raise to abandon the
+        evaluation). With workers (``workers`` >= 2) they share the trials out: the same row."""
+        config = self.config
+        if config.workers > 1:
+            trials = self._workers().evaluate(
+                self.som, config.eval_trials, config.fine_moves, check or (lambda: None)
+            )
+            reach = self.env.unwrapped.reach
+            result = evaluation_of(trials, config.fine_moves, reach, math.nan, self.som.recovers)
+        else:
+            env = config.make_env("evaluation")
+            controller = self.som if check is None else Ticking(self.som, check)
+            try:
+                result = evaluate(env, controller, config.eval_trials, config.fine_moves)
+            finally:
+                env.close()
+                self.som.reset()
         summary = result.summary()
         del summary["microseconds_per_query"]  # wall time: would make reruns differ
         return {"trial": self.trial, "learned": self.som.t, **summary}

@@ -12,7 +12,10 @@ after a kill of the learner or of a worker.
 Workers are processes of the ``spawn`` context (:class:`WorkerPool`), or Ray actors
 (:mod:`envs.harness.ray_workers`, ``--address``): each builds its env (and the renderer's
 context) itself, from the run's configuration. :class:`RoundPool` is what they share: the map
-sent, the shares, a round redone after a worker died.
+sent, the shares, a round redone after a worker died. The run's held-out evaluations are shared
+out the same way (:func:`evaluate_share`): each worker runs a consecutive share of the held-out
+trials, starting where one process evaluating them all would be in the stream, so the rows are
+those of the one-process evaluation, bit for bit.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from envs.harness.streams import seed_env
 from envs.harness.trials import Trial, run_trial
 from learners.persistence import quoted
 
@@ -129,9 +133,32 @@ def timed_collect(env: Any, blob: bytes, seed: int, indices: Sequence[int], pair
     return os.getpid(), time.perf_counter() - start, trials
 
 
-def _collect_in_worker(blob: bytes, seed: int, indices: range, pairs: int) -> Share:
-    """A task of a worker process: :func:`timed_collect` in its env."""
-    return timed_collect(_ENV, blob, seed, indices, pairs)
+def evaluate_share(env: Any, blob: bytes, seed: int, indices: range, fine_moves: int) -> Share:
+    """Held-out trials ``indices`` of the evaluation stream of ``seed`` with the map pickled in
+    ``blob`` (not learning), ``fine_moves`` fine moves each, in ``env`` (the run's, whatever it
+    ran before): its generator set to the stream's start and moved past the targets of the
+    trials before ``indices``, so each trial gets the target it gets in a one-process
+    evaluation. (its pid, seconds spent on the trials, the trials)."""
+    start = time.perf_counter()
+    som = pickle.loads(blob)
+    seed_env(env, seed, "evaluation")
+    env.unwrapped.skip_targets(indices.start)
+    trials = [run_trial(env, som, fine_moves) for _ in indices]
+    return os.getpid(), time.perf_counter() - start, trials
+
+
+#: The tasks a worker runs, by name: (env, map blob, seed, trial indices, pairs or fine moves)
+#: -> its :data:`Share`.
+COLLECT, EVALUATE = "collect", "evaluate"
+TASKS: dict[str, Callable[[Any, bytes, int, range, int], Share]] = {
+    COLLECT: timed_collect,
+    EVALUATE: evaluate_share,
+}
+
+
+def _in_worker(task: str, blob: bytes, seed: int, indices: range, moves: int) -> Share:
+    """A task of a worker process, in its env."""
+    return TASKS[task](_ENV, blob, seed, indices, moves)
 
 
 @dataclass
@@ -174,14 +201,42 @@ class RoundPool(ABC):
         Raises:
             WorkerError: the workers died MAX_RESTARTS + 1 times in this round.
         """
+        parts = shares(first, end, self.workers)
+        what = f"the round of trials {first}..{end - 1}"
+        results = self._share_out(COLLECT, som, parts, pairs, check, what)
+        self.spent.worker_seconds += sum(seconds for _, seconds, _ in results)
+        self.spent.trials += end - first
+        return [trial for _, _, trials in results for trial in trials]
+
+    def evaluate(
+        self, som: Any, trials: int, fine_moves: int, check: Callable[[], None]
+    ) -> list[Trial]:
+        """Held-out trials 0 .. trials - 1 of the run's evaluation stream with (a copy of)
+        ``som``, in order: the trials of a one-process evaluation (:func:`evaluate_share`).
+        ``check`` and the errors as for :meth:`collect` (an abandoned evaluation is redone when
+        the run resumes)."""
+        parts = shares(0, trials, self.workers)
+        results = self._share_out(EVALUATE, som, parts, fine_moves, check, "an evaluation")
+        return [trial for _, _, share in results for trial in share]
+
+    def _share_out(
+        self,
+        task: str,
+        som: Any,
+        parts: list[range],
+        moves: int,
+        check: Callable[[], None],
+        what: str,
+    ) -> list[Share]:
+        """``task`` (of :data:`TASKS`) run on ``parts`` by the workers, each with the map
+        ``som`` as it is now; a worker's death redoes it with new workers."""
         start = time.perf_counter()
         blob = pickle.dumps(som)
         self.spent.send_seconds += time.perf_counter() - start
-        parts = shares(first, end, self.workers)
         last = WorkerDied()
         for _attempt in range(MAX_RESTARTS + 1):
             try:
-                results = self._run(blob, parts, pairs, check)
+                results = self._run(task, blob, parts, moves, check)
             except WorkerDied as died:
                 last = died
                 check()
@@ -189,20 +244,19 @@ class RoundPool(ABC):
                 self.spent.restarts += 1
                 continue
             self.pids = {pid for pid, _, _ in results}
-            self.spent.worker_seconds += sum(seconds for _, seconds, _ in results)
-            self.spent.trials += end - first
-            return [trial for _, _, trials in results for trial in trials]
+            return results
         raise WorkerError(
-            f"the workers died {MAX_RESTARTS + 1} times in the round of trials {first}..{end - 1} "
-            f"(last: {quoted(last)}); {self.errors_shown}, or run with --workers 1"
+            f"the workers died {MAX_RESTARTS + 1} times in {what} (last: {quoted(last)}); "
+            f"{self.errors_shown}, or run with --workers 1"
         )
 
     @abstractmethod
     def _run(
-        self, blob: bytes, parts: list[range], pairs: int, check: Callable[[], None]
+        self, task: str, blob: bytes, parts: list[range], moves: int, check: Callable[[], None]
     ) -> list[Share]:
-        """Each of ``parts`` run by a worker with the map in ``blob``, calling ``check`` every
-        POLL_SECONDS; the shares' results in the order of ``parts``."""
+        """``task`` on each of ``parts`` run by a worker with the map in ``blob`` (``moves``:
+        the task's pairs or fine moves), calling ``check`` every POLL_SECONDS; the shares'
+        results in the order of ``parts``."""
 
     @abstractmethod
     def _restart(self) -> None:
@@ -232,12 +286,12 @@ class WorkerPool(RoundPool):
         )
 
     def _run(
-        self, blob: bytes, parts: list[range], pairs: int, check: Callable[[], None]
+        self, task: str, blob: bytes, parts: list[range], moves: int, check: Callable[[], None]
     ) -> list[Share]:
+        seed = self.config.seed
         try:
             futures = [
-                self._executor.submit(_collect_in_worker, blob, self.config.seed, part, pairs)
-                for part in parts
+                self._executor.submit(_in_worker, task, blob, seed, part, moves) for part in parts
             ]
             while not all(f.done() for f in futures):
                 wait(futures, timeout=POLL_SECONDS, return_when=FIRST_EXCEPTION)
@@ -269,9 +323,10 @@ class InProcessPool(RoundPool):
         self._env = config.make_env()
 
     def _run(
-        self, blob: bytes, parts: list[range], pairs: int, check: Callable[[], None]
+        self, task: str, blob: bytes, parts: list[range], moves: int, check: Callable[[], None]
     ) -> list[Share]:
-        return [timed_collect(self._env, blob, self.config.seed, part, pairs) for part in parts]
+        run = TASKS[task]
+        return [run(self._env, blob, self.config.seed, part, moves) for part in parts]
 
     def _restart(self) -> None:  # nothing dies here
         pass
