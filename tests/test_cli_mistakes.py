@@ -146,6 +146,38 @@ def _importing(process: subprocess.Popen) -> bool:
     return False
 
 
+#: A program whose Ctrl-C a library turns into a user error (as a GL start cut short may):
+#: SIGINT to itself (its argument ``interrupted``), then the error.
+TURNED = """
+import os, signal, sys, time
+from envs.cli import common
+from envs.sensing.rendering import RenderingUnavailableError
+
+def main():
+    try:
+        if sys.argv[1] == "interrupted":
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(60)
+    except KeyboardInterrupt:
+        pass
+    raise RenderingUnavailableError("could not start MUJOCO_GL=egl")
+
+common.run(main)
+"""
+
+
+@pytest.mark.parametrize(
+    ("case", "status", "said"),
+    [("interrupted", 130, "interrupted (Ctrl-C)"), ("plain", 2, "error: could not start")],
+)
+def test_an_error_a_library_made_of_ctrl_c_is_the_interrupt(case, status, said):
+    result = subprocess.run([sys.executable, "-c", TURNED, case], capture_output=True,
+                            text=True, timeout=120)  # fmt: skip
+    assert result.returncode == status, result.stderr[-2000:]
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and said in lines[0], result.stderr[-2000:]
+
+
 @pytest.mark.parametrize(
     ("name", "installed"), [(name, False) for name in sorted(INTERRUPTED)] + [("train", True)]
 )

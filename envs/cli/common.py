@@ -13,6 +13,7 @@ import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from types import FrameType
 from typing import Any, NoReturn, TypeVar
 
 from tqdm import tqdm
@@ -317,29 +318,45 @@ def fail(message: str) -> NoReturn:
 def run(main: Callable[[], object]) -> None:
     """Run a script's ``main`` with line-buffered stdout and user errors as one line, exit 2;
     a write that failed for lack of space or permission is one too (naming its file). Ctrl-C
-    (where a program does not stop on it itself) is one line, exit 130."""
+    (where a program does not stop on it itself) is one line, exit 130, also when a library
+    turned it into another error."""
     from learners.persistence import output_error
 
     sys.stdout.reconfigure(line_buffering=True)
     errors = user_errors()
+    interrupts: list[int] = []
+
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        interrupts.append(signum)
+        signal.default_int_handler(signum, frame)  # raises KeyboardInterrupt
+
     try:
         if threading.current_thread() is threading.main_thread():
             # Ctrl-C raises KeyboardInterrupt from here on (visuomotor_startup.py exits before).
-            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGINT, interrupt)
         main()
     except errors as exc:
-        fail(str(exc))
+        if not interrupts:
+            fail(str(exc))
+        _stopped()  # a library turned the interrupt into an error (a GL start cut short)
     except KeyboardInterrupt:
-        _say("interrupted (Ctrl-C); outputs not finished were not kept")
-        # An object the interrupt left half-built (numba's LLVM pass manager while it compiled)
-        # fails in its finalizer at exit; that message would follow the one line.
-        sys.unraisablehook = _ignore_after_interrupt
-        raise SystemExit(INTERRUPTED) from None
+        _stopped()
     except OSError as exc:
+        if interrupts:
+            _stopped()  # a call the interrupt cut short
         error = output_error(exc, "the output")
         if error is None:
             raise
         fail(str(error))
+
+
+def _stopped() -> NoReturn:
+    """End a program stopped by Ctrl-C: one line, exit 130."""
+    _say("interrupted (Ctrl-C); outputs not finished were not kept")
+    # An object the interrupt left half-built (numba's LLVM pass manager while it compiled)
+    # fails in its finalizer at exit; that message would follow the one line.
+    sys.unraisablehook = _ignore_after_interrupt
+    raise SystemExit(INTERRUPTED) from None
 
 
 def _ignore_after_interrupt(unraisable: Any) -> None:
