@@ -755,11 +755,8 @@ class ReachEnv(ArmScene):
     def _info(self, reward_terms: tuple[Any, ...], clipped: bool, settle_time: float) -> StepInfo:
         """The transition's ``info``; ``reward_terms`` in :attr:`REWARD_TERMS`' order, whose
         first is the distance's and last the unseen marker's (a task adds the others)."""
-        data = self.data
-        target, effector = (
-            data.mocap_pos[self._target_mocap].copy(),
-            data.site_xpos[self._site].copy(),
-        )
+        target = self.data.mocap_pos[self.target_mocap_id].copy()
+        effector = self.sensed_point()
         distance = math.dist(target.tolist(), effector.tolist())
         achieved, desired = self._last["effector"].tolist(), self._last["target"].tolist()
         image_errors = [  # px, per camera and marker

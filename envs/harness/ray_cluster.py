@@ -75,12 +75,10 @@ def start_ray(address: str | None, num_cpus: int) -> None:
     """Connect to the cluster at ``address``, or (None or ``local``) start a local instance on
     the loopback interface with ``num_cpus`` CPUs, no dashboard and no usage reporting.
     ``MUJOCO_GL`` is passed on to Ray's workers, which run one BLAS thread each. (Callers
-    check first with :func:`need_ray` that Ray is installed.) RayUnavailableError if no head
-    answers at ``address`` (:func:`check_reachable`)."""
+    check first with :func:`need_ray` that Ray is installed, and with :func:`check_reachable`
+    that a head answers at ``address``: ``ray.init`` would wait for it without end.)"""
     import ray
 
-    if address is not None:
-        check_reachable(address)
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"
     env_vars = {
         "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
